@@ -1,0 +1,37 @@
+//! # pumptwin-core
+//!
+//! The `no_std`, heap-free core of pumptwin: everything that must agree bit for bit
+//! between the host trainer, the Linux edge gateway and MCU firmware.
+//!
+//! | module | what | paper |
+//! |---|---|---|
+//! | [`bearing`] | bearing geometry, defect frequencies (BPFO, BPFI, BSF, FTF) | §5.2, eq. 18 (T_impact) |
+//! | [`excitation`] | impact trains, shaft sinusoid, random pulses, composite force | eqs. 18–20 |
+//! | [`simulator`] | 2-DOF mass–damper–stiffness model with cubic stiffness, fixed-step RK4, sensor nodes | eqs. 16–17, 21–22 |
+//! | [`fft`] | radix-2 FFT with a caller-owned plan | §4.3, §5.3 |
+//! | [`fir`] | windowed-sinc low-pass, the common band limit and anti-alias filter | — |
+//! | [`features`] | time, spectral and envelope-spectrum node features | eq. 9, Table 3 |
+//! | [`graph`] | dynamic sparse sensor graph: prior ⊕ Pearson, threshold, normalization | eqs. 1–3 |
+//! | [`rng`] | seeded PRNG (xoshiro128++), Gaussian and Poisson draws | §5.2 random excitation |
+//!
+//! Memory: every function writes into buffers the caller owns; nothing allocates.
+//! Errors: every fallible function returns [`Result`] with the flat [`Error`] enum.
+//! Math: all transcendental functions go through the private `math` module, which
+//! calls `libm` explicitly, so host tests exercise exactly the code the MCU runs.
+#![cfg_attr(not(feature = "std"), no_std)]
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod bearing;
+mod error;
+pub mod excitation;
+pub mod features;
+pub mod fft;
+pub mod fir;
+pub mod graph;
+mod math;
+pub mod rng;
+pub mod simulator;
+pub mod units;
+
+pub use error::{Error, Result};

@@ -1,0 +1,1 @@
+//! pumptwin host side.
