@@ -115,14 +115,22 @@ impl ImpactTrain {
             return Err(Error::InvalidParameter("impact rate and width must be > 0"));
         }
         if !(0.0..=1.0).contains(&self.modulation_depth) || self.jitter < 0.0 {
-            return Err(Error::InvalidParameter("modulation depth in [0,1], jitter >= 0"));
+            return Err(Error::InvalidParameter(
+                "modulation depth in [0,1], jitter >= 0",
+            ));
         }
         Ok(())
     }
 
     /// Add `weight · F_impact` on `grid` into `out`. Jitter draws come from `rng`,
     /// one per impact in time order, so a whole buffer must be rendered in one call.
-    pub fn add_to(&self, grid: TimeGrid, weight: f64, out: &mut [f64], rng: &mut Xoshiro128pp) -> Result<()> {
+    pub fn add_to(
+        &self,
+        grid: TimeGrid,
+        weight: f64,
+        out: &mut [f64],
+        rng: &mut Xoshiro128pp,
+    ) -> Result<()> {
         self.validate()?;
         grid.check()?;
         if out.is_empty() || weight == 0.0 || self.amplitude == 0.0 {
@@ -144,7 +152,8 @@ impl ImpactTrain {
                 nominal
             };
             let d = self.modulation_depth;
-            let am = 1.0 - d + d * 0.5 * (1.0 + math::cos(2.0 * math::PI * self.modulation_hz * t_n));
+            let am =
+                1.0 - d + d * 0.5 * (1.0 + math::cos(2.0 * math::PI * self.modulation_hz * t_n));
             add_gaussian_pulse(out, grid, t_n, self.sigma_s, weight * self.amplitude * am);
             n += 1.0;
         }
@@ -167,7 +176,8 @@ impl ShaftSinusoid {
     /// Add `weight · F_sin` on `grid` into `out`.
     pub fn add_to(&self, grid: TimeGrid, weight: f64, out: &mut [f64]) -> Result<()> {
         grid.check()?;
-        if !(self.amplitude.is_finite() && self.shaft_hz.is_finite() && self.phase_rad.is_finite()) {
+        if !(self.amplitude.is_finite() && self.shaft_hz.is_finite() && self.phase_rad.is_finite())
+        {
             return Err(Error::NonFinite);
         }
         let w = 2.0 * math::PI * self.shaft_hz;
@@ -194,14 +204,27 @@ pub struct RandomExcitation {
 
 impl RandomExcitation {
     /// Add `weight · F_rand` on `grid` into `out`, drawing from `rng`.
-    pub fn add_to(&self, grid: TimeGrid, weight: f64, out: &mut [f64], rng: &mut Xoshiro128pp) -> Result<()> {
+    pub fn add_to(
+        &self,
+        grid: TimeGrid,
+        weight: f64,
+        out: &mut [f64],
+        rng: &mut Xoshiro128pp,
+    ) -> Result<()> {
         grid.check()?;
-        let v = [self.noise_std, self.pulse_rate_hz, self.pulse_amplitude, self.pulse_sigma_s];
+        let v = [
+            self.noise_std,
+            self.pulse_rate_hz,
+            self.pulse_amplitude,
+            self.pulse_sigma_s,
+        ];
         if v.iter().any(|x| !x.is_finite()) {
             return Err(Error::NonFinite);
         }
         if self.noise_std < 0.0 || self.pulse_rate_hz < 0.0 {
-            return Err(Error::InvalidParameter("noise std and pulse rate must be >= 0"));
+            return Err(Error::InvalidParameter(
+                "noise std and pulse rate must be >= 0",
+            ));
         }
         if self.noise_std > 0.0 {
             for o in out.iter_mut() {
@@ -306,21 +329,37 @@ mod tests {
         let grid = TimeGrid { t0: 0.0, dt: 1e-5 };
         let mut a = vec![0.0; 20_000];
         let mut b = vec![0.0; 20_000];
-        train.add_to(grid, 1.0, &mut a, &mut Xoshiro128pp::seed_from_u64(3)).unwrap();
-        train.add_to(grid, 1.0, &mut b, &mut Xoshiro128pp::seed_from_u64(3)).unwrap();
+        train
+            .add_to(grid, 1.0, &mut a, &mut Xoshiro128pp::seed_from_u64(3))
+            .unwrap();
+        train
+            .add_to(grid, 1.0, &mut b, &mut Xoshiro128pp::seed_from_u64(3))
+            .unwrap();
         assert_eq!(a, b, "deterministic for a seed");
         // Impact at t = 0.05 s sits at the modulation trough (cos(π) = −1): amplitude ≈ 0.
         let trough = a[4900..5100].iter().cloned().fold(0.0, f64::max);
         let crest = a[9900..10100].iter().cloned().fold(0.0, f64::max);
-        assert!(trough < 0.01 && crest > 0.9, "trough {trough} crest {crest}");
+        assert!(
+            trough < 0.01 && crest > 0.9,
+            "trough {trough} crest {crest}"
+        );
     }
 
     #[test]
     fn composite_weights_and_angular_share() {
         let ex = CompositeExcitation {
             impact: ImpactTrain::periodic(1.0, 50.0, 1e-4),
-            sinusoid: ShaftSinusoid { amplitude: 2.0, shaft_hz: 25.0, phase_rad: 0.0 },
-            random: RandomExcitation { noise_std: 0.0, pulse_rate_hz: 0.0, pulse_amplitude: 0.0, pulse_sigma_s: 1e-4 },
+            sinusoid: ShaftSinusoid {
+                amplitude: 2.0,
+                shaft_hz: 25.0,
+                phase_rad: 0.0,
+            },
+            random: RandomExcitation {
+                noise_std: 0.0,
+                pulse_rate_hz: 0.0,
+                pulse_amplitude: 0.0,
+                pulse_sigma_s: 1e-4,
+            },
             w_impact: 0.0,
             w_sin: 0.5,
             w_rand: 1.0,
@@ -328,7 +367,8 @@ mod tests {
         };
         let grid = TimeGrid { t0: 0.0, dt: 1e-4 };
         let (mut fr, mut ft) = (vec![9.0; 400], vec![9.0; 400]);
-        ex.render(grid, &mut fr, &mut ft, &mut Xoshiro128pp::seed_from_u64(0)).unwrap();
+        ex.render(grid, &mut fr, &mut ft, &mut Xoshiro128pp::seed_from_u64(0))
+            .unwrap();
         // 0.5 · 2 · sin(2π·25·0.01) = 1 at j = 100.
         assert!((fr[100] - 1.0).abs() < 1e-12);
         assert!((ft[100] - 0.25).abs() < 1e-12);
@@ -337,10 +377,16 @@ mod tests {
 
     #[test]
     fn poisson_pulses_arrive_at_the_rate() {
-        let r = RandomExcitation { noise_std: 0.0, pulse_rate_hz: 50.0, pulse_amplitude: 1.0, pulse_sigma_s: 1e-4 };
+        let r = RandomExcitation {
+            noise_std: 0.0,
+            pulse_rate_hz: 50.0,
+            pulse_amplitude: 1.0,
+            pulse_sigma_s: 1e-4,
+        };
         let grid = TimeGrid { t0: 0.0, dt: 1e-4 };
         let mut out = vec![0.0; 200_000]; // 20 s -> ~1000 pulses
-        r.add_to(grid, 1.0, &mut out, &mut Xoshiro128pp::seed_from_u64(9)).unwrap();
+        r.add_to(grid, 1.0, &mut out, &mut Xoshiro128pp::seed_from_u64(9))
+            .unwrap();
         let area: f64 = out.iter().sum::<f64>() * grid.dt;
         let per_pulse = 1e-4 * (2.0 * math::PI).sqrt(); // mean |B| ≈ 1.0 (B/2 spread rarely crosses 0)
         let count = area / per_pulse;
@@ -352,9 +398,15 @@ mod tests {
         let mut out = [0.0f64; 8];
         let grid = TimeGrid { t0: 0.0, dt: 1e-4 };
         let mut rng = Xoshiro128pp::seed_from_u64(0);
-        assert!(ImpactTrain::periodic(1.0, 0.0, 1e-4).add_to(grid, 1.0, &mut out, &mut rng).is_err());
-        assert!(ImpactTrain::periodic(f64::NAN, 10.0, 1e-4).add_to(grid, 1.0, &mut out, &mut rng).is_err());
+        assert!(ImpactTrain::periodic(1.0, 0.0, 1e-4)
+            .add_to(grid, 1.0, &mut out, &mut rng)
+            .is_err());
+        assert!(ImpactTrain::periodic(f64::NAN, 10.0, 1e-4)
+            .add_to(grid, 1.0, &mut out, &mut rng)
+            .is_err());
         let bad_grid = TimeGrid { t0: 0.0, dt: 0.0 };
-        assert!(ImpactTrain::periodic(1.0, 10.0, 1e-4).add_to(bad_grid, 1.0, &mut out, &mut rng).is_err());
+        assert!(ImpactTrain::periodic(1.0, 10.0, 1e-4)
+            .add_to(bad_grid, 1.0, &mut out, &mut rng)
+            .is_err());
     }
 }

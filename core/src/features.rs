@@ -1,1 +1,730 @@
-//! TODO
+//! Node features (paper eq. 9, §4.3 and Table 3): time statistics, spectral shape,
+//! and envelope-spectrum energy at the bearing's kinematic frequencies.
+//!
+//! One window of `W` samples from one sensor gives `T` feature rows (one per segment
+//! of `W/T` samples), each of [`FEATURE_DIM`] values in the order of [`FEATURE_NAMES`]:
+//!
+//! ```text
+//! time (per segment, x = segment samples, μ mean, σ std):
+//!   mean, rms = √(Σx²/n), crest = max|x|/rms, kurtosis = E[(x−μ)⁴]/σ⁴,
+//!   skewness = E[(x−μ)³]/σ³, peak_to_peak, shape = rms/mean|x|, impulse = max|x|/mean|x|
+//! spectral (per segment, Hann-windowed one-sided power P_k up to the band limit):
+//!   dominant_hz = argmax P_k (parabolic interpolation), centroid = Σf_k P_k / ΣP_k,
+//!   bandwidth = √(Σ(f_k − centroid)² P_k / ΣP_k), band_energy_1..4 = share of ΣP_k in
+//!   four equal bands of [0, band limit]
+//! envelope (whole window, shared by its T rows):
+//!   e(t) = |analytic(bandpass(x))|, E_k = power spectrum of e − mean(e)
+//!   env_<f>_db = 10·log10( Σ_{h=1..2} max_{|ν−h·f|≤tol} E(ν) / (2·median E) )
+//!   for f ∈ {shaft, BPFO, BPFI, BSF}; env_kurtosis = kurtosis of e(t)
+//! ```
+//!
+//! Why the envelope features are computed per window, not per segment: a segment of
+//! 256 samples at 12 kHz resolves 47 Hz, too coarse to separate BPFO (≈ 107 Hz) from
+//! BPFI (≈ 162 Hz) at CWRU speeds; the full 2048-sample window resolves 5.9 Hz.
+//! The tolerance `tol = max(1 bin, 1.5 %·h·f)` admits the slip of real bearings.
+//! The envelope band-pass is done in the frequency domain inside the Hilbert
+//! transform (bins outside [band_lo, band_hi] are zeroed), so it costs nothing extra.
+
+use crate::bearing::DefectOrders;
+use crate::error::{expect_len, Error, Result};
+use crate::fft::{fft_in_place, power_spectrum, Complex32, Direction, Window};
+use crate::math;
+
+/// Number of time-domain features.
+pub const TIME_FEATURES: usize = 8;
+/// Number of spectral features.
+pub const SPECTRAL_FEATURES: usize = 7;
+/// Number of envelope features.
+pub const ENVELOPE_FEATURES: usize = 5;
+/// Features per node and segment.
+pub const FEATURE_DIM: usize = TIME_FEATURES + SPECTRAL_FEATURES + ENVELOPE_FEATURES;
+
+/// Names of the features, in order.
+pub const FEATURE_NAMES: [&str; FEATURE_DIM] = [
+    "mean",
+    "rms",
+    "crest_factor",
+    "kurtosis",
+    "skewness",
+    "peak_to_peak",
+    "shape_factor",
+    "impulse_factor",
+    "dominant_hz",
+    "centroid_hz",
+    "bandwidth_hz",
+    "band_energy_1",
+    "band_energy_2",
+    "band_energy_3",
+    "band_energy_4",
+    "env_shaft_db",
+    "env_bpfo_db",
+    "env_bpfi_db",
+    "env_bsf_db",
+    "env_kurtosis",
+];
+
+/// Harmonics summed per kinematic frequency in the envelope features. Two, not three:
+/// on the CWRU 6205 `3·BPFO ≈ 2·BPFI` (0.7 % apart) and `3·BSF ≈ 2·BPFO` (1.4 %), so a
+/// third harmonic would credit one defect with another's line.
+pub const ENVELOPE_HARMONICS: usize = 2;
+/// Relative search tolerance around each harmonic (rolling-element slip).
+pub const ENVELOPE_SLIP: f32 = 0.015;
+
+/// Index of the first envelope feature in a feature row.
+pub const ENVELOPE_OFFSET: usize = TIME_FEATURES + SPECTRAL_FEATURES;
+
+/// Time-domain statistics of one segment.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TimeStats {
+    /// Mean.
+    pub mean: f32,
+    /// Root mean square.
+    pub rms: f32,
+    /// Peak / RMS.
+    pub crest_factor: f32,
+    /// Fourth standardized moment (3 for a Gaussian).
+    pub kurtosis: f32,
+    /// Third standardized moment.
+    pub skewness: f32,
+    /// Max − min.
+    pub peak_to_peak: f32,
+    /// RMS / mean absolute value.
+    pub shape_factor: f32,
+    /// Peak / mean absolute value.
+    pub impulse_factor: f32,
+}
+
+impl TimeStats {
+    /// Compute in f64 accumulators (two passes: mean, then central moments).
+    ///
+    /// # Errors
+    /// [`Error::NonFinite`] for NaN/∞ samples, [`Error::Degenerate`] for an empty or
+    /// constant segment (a dead sensor: the caller masks the node).
+    pub fn compute(x: &[f32]) -> Result<Self> {
+        if x.is_empty() {
+            return Err(Error::Degenerate);
+        }
+        let n = x.len() as f64;
+        let (mut sum, mut sum_sq, mut sum_abs) = (0.0f64, 0.0f64, 0.0f64);
+        let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+        for &v in x {
+            if !v.is_finite() {
+                return Err(Error::NonFinite);
+            }
+            let d = f64::from(v);
+            sum += d;
+            sum_sq += d * d;
+            sum_abs += d.abs();
+            lo = lo.min(v);
+            hi = hi.max(v);
+        }
+        let mean = sum / n;
+        let (mut m2, mut m3, mut m4) = (0.0f64, 0.0f64, 0.0f64);
+        for &v in x {
+            let d = f64::from(v) - mean;
+            let d2 = d * d;
+            m2 += d2;
+            m3 += d2 * d;
+            m4 += d2 * d2;
+        }
+        let (m2, m3, m4) = (m2 / n, m3 / n, m4 / n);
+        if m2 <= 1e-30 || !(hi > lo) {
+            return Err(Error::Degenerate);
+        }
+        let rms = math::sqrt(sum_sq / n);
+        let peak = f64::from(hi.abs().max(lo.abs()));
+        let mean_abs = sum_abs / n;
+        Ok(Self {
+            mean: mean as f32,
+            rms: rms as f32,
+            crest_factor: (peak / rms) as f32,
+            kurtosis: (m4 / (m2 * m2)) as f32,
+            skewness: (m3 / (m2 * math::sqrt(m2))) as f32,
+            peak_to_peak: hi - lo,
+            shape_factor: (rms / mean_abs) as f32,
+            impulse_factor: (peak / mean_abs) as f32,
+        })
+    }
+}
+
+/// Spectral shape of a one-sided power spectrum.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SpectralStats {
+    /// Frequency of the largest bin (parabolic interpolation), Hz.
+    pub dominant_hz: f32,
+    /// Power-weighted mean frequency, Hz.
+    pub centroid_hz: f32,
+    /// Power-weighted standard deviation of frequency, Hz.
+    pub bandwidth_hz: f32,
+    /// Share of power in four equal bands of [0, band limit].
+    pub band_energy: [f32; 4],
+}
+
+impl SpectralStats {
+    /// From a one-sided power spectrum `power` (length `n_fft/2 + 1`) at `fs_hz`,
+    /// using only bins at or below `band_limit_hz`, skipping DC.
+    pub fn compute(power: &[f32], fs_hz: f32, band_limit_hz: f32) -> Result<Self> {
+        if power.len() < 3 {
+            return Err(Error::BufferSize {
+                expected: 3,
+                got: power.len(),
+            });
+        }
+        let n_fft = 2 * (power.len() - 1);
+        let df = fs_hz / n_fft as f32;
+        let k_max = ((band_limit_hz / df) as usize).min(power.len() - 1).max(2);
+        let (mut total, mut first) = (0.0f64, 0.0f64);
+        let mut band = [0.0f64; 4];
+        let mut k_peak = 1;
+        for k in 1..=k_max {
+            let p = f64::from(power[k]);
+            if !p.is_finite() {
+                return Err(Error::NonFinite);
+            }
+            total += p;
+            first += p * f64::from(k as f32 * df);
+            let b = ((k as f32 * df / band_limit_hz) * 4.0) as usize;
+            band[b.min(3)] += p;
+            if power[k] > power[k_peak] {
+                k_peak = k;
+            }
+        }
+        if total <= 0.0 {
+            return Err(Error::Degenerate);
+        }
+        let centroid = first / total;
+        let mut second = 0.0f64;
+        for k in 1..=k_max {
+            let d = f64::from(k as f32 * df) - centroid;
+            second += d * d * f64::from(power[k]);
+        }
+        Ok(Self {
+            dominant_hz: interpolated_peak(power, k_peak) * df,
+            centroid_hz: centroid as f32,
+            bandwidth_hz: math::sqrt(second / total) as f32,
+            band_energy: [
+                (band[0] / total) as f32,
+                (band[1] / total) as f32,
+                (band[2] / total) as f32,
+                (band[3] / total) as f32,
+            ],
+        })
+    }
+}
+
+/// Bin position of a peak refined by a parabola through its neighbours.
+fn interpolated_peak(p: &[f32], k: usize) -> f32 {
+    if k == 0 || k + 1 >= p.len() {
+        return k as f32;
+    }
+    let (a, b, c) = (p[k - 1], p[k], p[k + 1]);
+    let denom = a - 2.0 * b + c;
+    if denom.abs() < f32::MIN_POSITIVE {
+        return k as f32;
+    }
+    let delta = 0.5 * (a - c) / denom;
+    k as f32 + delta.clamp(-0.5, 0.5)
+}
+
+/// Band for the envelope (Hilbert) demodulation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EnvelopeBand {
+    /// Lower edge, Hz (removes shaft harmonics and structural low-frequency content).
+    pub lo_hz: f32,
+    /// Upper edge, Hz (the common band limit).
+    pub hi_hz: f32,
+}
+
+impl EnvelopeBand {
+    /// 500 Hz – 5 kHz: above shaft and gear-mesh content, below the common band limit.
+    pub const DEFAULT: Self = Self {
+        lo_hz: 500.0,
+        hi_hz: crate::fir::BAND_LIMIT_HZ,
+    };
+}
+
+/// Envelope `|analytic(bandpass(x))|` of `x` (power-of-two length) into `env`.
+/// The mean is removed before the transform. `scratch.len() == env.len() == x.len()`.
+pub fn envelope(
+    x: &[f32],
+    fs_hz: f32,
+    band: EnvelopeBand,
+    scratch: &mut [Complex32],
+    env: &mut [f32],
+) -> Result<()> {
+    let n = x.len();
+    expect_len(scratch.len(), n)?;
+    expect_len(env.len(), n)?;
+    let mut mean = 0.0f64;
+    for &v in x {
+        if !v.is_finite() {
+            return Err(Error::NonFinite);
+        }
+        mean += f64::from(v);
+    }
+    let mean = (mean / n.max(1) as f64) as f32;
+    for (z, &v) in scratch.iter_mut().zip(x.iter()) {
+        *z = Complex32::new(v - mean, 0.0);
+    }
+    fft_in_place(scratch, Direction::Forward)?;
+    // Analytic signal: keep positive frequencies inside the band, doubled; zero the rest.
+    let df = fs_hz / n as f32;
+    for (k, z) in scratch.iter_mut().enumerate() {
+        let f = k as f32 * df;
+        let keep = k > 0 && k < n / 2 && f >= band.lo_hz && f <= band.hi_hz;
+        *z = if keep {
+            Complex32::new(2.0 * z.re, 2.0 * z.im)
+        } else {
+            Complex32::ZERO
+        };
+    }
+    fft_in_place(scratch, Direction::Inverse)?;
+    for (e, z) in env.iter_mut().zip(scratch.iter()) {
+        *e = z.norm();
+    }
+    Ok(())
+}
+
+/// Envelope spectrum: power spectrum of `envelope(x) − mean`.
+/// `scratch`, `env`: length `N = x.len()`; `out`: length `N/2 + 1`.
+pub fn envelope_spectrum(
+    x: &[f32],
+    fs_hz: f32,
+    band: EnvelopeBand,
+    scratch: &mut [Complex32],
+    env: &mut [f32],
+    out: &mut [f32],
+) -> Result<()> {
+    envelope(x, fs_hz, band, scratch, env)?;
+    let mean = env.iter().map(|&v| f64::from(v)).sum::<f64>() / env.len() as f64;
+    for e in env.iter_mut() {
+        *e -= mean as f32;
+    }
+    power_spectrum(env, Window::Hann, scratch, out)
+}
+
+/// Frequency of the largest bin of a one-sided spectrum within `[lo_hz, hi_hz]`,
+/// refined by parabolic interpolation. `n_fft = 2·(spectrum.len() − 1)`.
+pub fn peak_frequency(spectrum: &[f32], fs_hz: f32, lo_hz: f32, hi_hz: f32) -> Result<f32> {
+    if spectrum.len() < 3 {
+        return Err(Error::BufferSize {
+            expected: 3,
+            got: spectrum.len(),
+        });
+    }
+    let df = fs_hz / (2 * (spectrum.len() - 1)) as f32;
+    let k_lo = ((lo_hz / df) as usize).max(1);
+    let k_hi = ((hi_hz / df) as usize).min(spectrum.len() - 2);
+    if k_lo > k_hi {
+        return Err(Error::InvalidParameter("empty frequency range"));
+    }
+    let mut k_peak = k_lo;
+    for k in k_lo..=k_hi {
+        if spectrum[k] > spectrum[k_peak] {
+            k_peak = k;
+        }
+    }
+    Ok(interpolated_peak(spectrum, k_peak) * df)
+}
+
+/// `10·log10(Σ_{h=1..H} max_{|ν − h·f0| ≤ tol_h} S(ν) / (H·floor))` with
+/// `tol_h = max(1 bin, slip·h·f0)`; harmonics above the spectrum are skipped.
+pub fn harmonic_level_db(
+    spectrum: &[f32],
+    fs_hz: f32,
+    f0_hz: f32,
+    harmonics: usize,
+    slip: f32,
+    floor: f32,
+) -> f32 {
+    let df = fs_hz / (2 * (spectrum.len().max(2) - 1)) as f32;
+    let mut sum = 0.0f32;
+    let mut used = 0usize;
+    for h in 1..=harmonics {
+        let f = h as f32 * f0_hz;
+        let tol = df.max(slip * f);
+        let lo = ((f - tol) / df).max(1.0) as usize;
+        let hi = ((f + tol) / df) as usize + 1;
+        if hi >= spectrum.len() {
+            break;
+        }
+        let mut best = 0.0f32;
+        for &s in &spectrum[lo..=hi] {
+            best = best.max(s);
+        }
+        sum += best;
+        used += 1;
+    }
+    if used == 0 || !(floor > 0.0) {
+        return 0.0;
+    }
+    10.0 * math::log10f(sum / (used as f32 * floor) + 1e-12)
+}
+
+/// Median of the envelope spectrum bins `1..=k_hi`, computed in `work` (no allocation).
+fn median_level(spectrum: &[f32], k_hi: usize, work: &mut [f32]) -> f32 {
+    let k_hi = k_hi.min(spectrum.len() - 1).min(work.len());
+    if k_hi == 0 {
+        return 0.0;
+    }
+    let w = &mut work[..k_hi];
+    w.copy_from_slice(&spectrum[1..=k_hi]);
+    let mid = k_hi / 2;
+    let (_, m, _) = w.select_nth_unstable_by(mid, |a, b| a.total_cmp(b));
+    *m
+}
+
+/// What the feature extractor is told about the machine and the acquisition.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FeatureConfig {
+    /// Sampling rate, Hz.
+    pub fs_hz: f32,
+    /// Shaft rate, Hz.
+    pub shaft_hz: f32,
+    /// Defect orders of the monitored bearing.
+    pub orders: DefectOrders,
+    /// Envelope demodulation band.
+    pub envelope_band: EnvelopeBand,
+    /// Common band limit for spectral features, Hz.
+    pub band_limit_hz: f32,
+    /// Number of segments `T` per window.
+    pub segments: usize,
+}
+
+impl FeatureConfig {
+    fn validate(&self, window: usize) -> Result<()> {
+        let v = [
+            self.fs_hz,
+            self.shaft_hz,
+            self.band_limit_hz,
+            self.envelope_band.lo_hz,
+            self.envelope_band.hi_hz,
+        ];
+        if v.iter().any(|x| !x.is_finite()) {
+            return Err(Error::NonFinite);
+        }
+        if self.fs_hz <= 0.0 || self.shaft_hz <= 0.0 {
+            return Err(Error::InvalidParameter(
+                "sampling rate and shaft rate must be > 0",
+            ));
+        }
+        if self.segments == 0
+            || window % self.segments != 0
+            || !(window / self.segments).is_power_of_two()
+        {
+            return Err(Error::InvalidParameter(
+                "window / segments must be a power of two",
+            ));
+        }
+        if window / self.segments < 8 {
+            return Err(Error::InvalidParameter(
+                "segments must hold at least 8 samples",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Caller-owned scratch for [`node_features`] on windows of `W` samples.
+#[derive(Debug, Clone)]
+pub struct FeatureScratch<const W: usize> {
+    spectrum: [Complex32; W],
+    env: [f32; W],
+    power: [f32; W],
+}
+
+impl<const W: usize> FeatureScratch<W> {
+    /// Zeroed scratch (≈ 16·W bytes).
+    pub const fn new() -> Self {
+        Self {
+            spectrum: [Complex32::ZERO; W],
+            env: [0.0; W],
+            power: [0.0; W],
+        }
+    }
+}
+
+impl<const W: usize> Default for FeatureScratch<W> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// Features of one node over one window: `out[t]` is the row of segment `t`
+/// (`out.len() == cfg.segments`).
+///
+/// # Errors
+/// Non-finite samples, a constant segment ([`Error::Degenerate`]), bad configuration.
+pub fn node_features<const W: usize>(
+    x: &[f32; W],
+    cfg: &FeatureConfig,
+    scratch: &mut FeatureScratch<W>,
+    out: &mut [[f32; FEATURE_DIM]],
+) -> Result<()> {
+    cfg.validate(W)?;
+    expect_len(out.len(), cfg.segments)?;
+    let seg = W / cfg.segments;
+
+    // Envelope features over the whole window (shared by its rows).
+    let half = W / 2 + 1;
+    {
+        let (spec_out, rest) = scratch.power.split_at_mut(half);
+        envelope_spectrum(
+            x,
+            cfg.fs_hz,
+            cfg.envelope_band,
+            &mut scratch.spectrum,
+            &mut scratch.env,
+            spec_out,
+        )?;
+        let env_stats = envelope_kurtosis(x, cfg, &mut scratch.spectrum, &mut scratch.env)?;
+        let df = cfg.fs_hz / W as f32;
+        let max_f = cfg
+            .orders
+            .bpfi
+            .max(cfg.orders.bpfo)
+            .max(cfg.orders.bsf)
+            .max(1.0)
+            * cfg.shaft_hz;
+        let k_floor = ((4.0 * max_f / df) as usize).min(half - 1);
+        let floor = median_level(spec_out, k_floor, rest);
+        let targets = [
+            cfg.shaft_hz,
+            cfg.orders.bpfo * cfg.shaft_hz,
+            cfg.orders.bpfi * cfg.shaft_hz,
+            cfg.orders.bsf * cfg.shaft_hz,
+        ];
+        let mut env_row = [0.0f32; ENVELOPE_FEATURES];
+        for (v, &f) in env_row.iter_mut().zip(targets.iter()) {
+            *v = harmonic_level_db(
+                spec_out,
+                cfg.fs_hz,
+                f,
+                ENVELOPE_HARMONICS,
+                ENVELOPE_SLIP,
+                floor,
+            );
+        }
+        env_row[4] = env_stats;
+        for row in out.iter_mut() {
+            row[ENVELOPE_OFFSET..].copy_from_slice(&env_row);
+        }
+    }
+
+    // Time and spectral features per segment.
+    for (t, row) in out.iter_mut().enumerate() {
+        let xs = &x[t * seg..(t + 1) * seg];
+        let ts = TimeStats::compute(xs)?;
+        row[..TIME_FEATURES].copy_from_slice(&[
+            ts.mean,
+            ts.rms,
+            ts.crest_factor,
+            ts.kurtosis,
+            ts.skewness,
+            ts.peak_to_peak,
+            ts.shape_factor,
+            ts.impulse_factor,
+        ]);
+        let p = &mut scratch.power[..seg / 2 + 1];
+        power_spectrum(xs, Window::Hann, &mut scratch.spectrum[..seg], p)?;
+        let ss = SpectralStats::compute(p, cfg.fs_hz, cfg.band_limit_hz)?;
+        row[TIME_FEATURES..ENVELOPE_OFFSET].copy_from_slice(&[
+            ss.dominant_hz,
+            ss.centroid_hz,
+            ss.bandwidth_hz,
+            ss.band_energy[0],
+            ss.band_energy[1],
+            ss.band_energy[2],
+            ss.band_energy[3],
+        ]);
+    }
+    Ok(())
+}
+
+/// Kurtosis of the band-passed envelope (impulsiveness of the demodulated signal).
+fn envelope_kurtosis(
+    x: &[f32],
+    cfg: &FeatureConfig,
+    scratch: &mut [Complex32],
+    env: &mut [f32],
+) -> Result<f32> {
+    envelope(x, cfg.fs_hz, cfg.envelope_band, scratch, env)?;
+    match TimeStats::compute(env) {
+        Ok(s) => Ok(s.kurtosis),
+        Err(Error::Degenerate) => Ok(0.0),
+        Err(e) => Err(e),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bearing::BearingGeometry;
+    use crate::rng::Xoshiro128pp;
+    use std::vec::Vec;
+
+    #[test]
+    fn time_stats_of_a_sine() {
+        let x: Vec<f32> = (0..4096)
+            .map(|i| (2.0 * math::PI * i as f64 / 64.0).sin() as f32)
+            .collect();
+        let s = TimeStats::compute(&x).unwrap();
+        let sq2 = core::f32::consts::SQRT_2;
+        assert!(s.mean.abs() < 1e-6);
+        assert!((s.rms - 1.0 / sq2).abs() < 1e-5);
+        assert!((s.crest_factor - sq2).abs() < 1e-4);
+        assert!((s.kurtosis - 1.5).abs() < 1e-4);
+        assert!(s.skewness.abs() < 1e-4);
+        assert!((s.peak_to_peak - 2.0).abs() < 1e-5);
+        // shape = rms / (2/π) = π/(2√2)
+        assert!((s.shape_factor - core::f32::consts::PI / (2.0 * sq2)).abs() < 1e-3);
+    }
+
+    /// Against a plain f64 reference of the textbook formulas on Gaussian noise.
+    #[test]
+    fn time_stats_match_reference() {
+        let mut r = Xoshiro128pp::seed_from_u64(4);
+        let x: Vec<f32> = (0..1000).map(|_| (r.normal() * 2.0 + 0.5) as f32).collect();
+        let s = TimeStats::compute(&x).unwrap();
+        let n = x.len() as f64;
+        let xd: Vec<f64> = x.iter().map(|&v| f64::from(v)).collect();
+        let mean = xd.iter().sum::<f64>() / n;
+        let var = xd.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n;
+        let kurt = xd.iter().map(|v| (v - mean).powi(4)).sum::<f64>() / n / (var * var);
+        let skew = xd.iter().map(|v| (v - mean).powi(3)).sum::<f64>() / n / var.powf(1.5);
+        assert!((f64::from(s.mean) - mean).abs() < 1e-6);
+        assert!((f64::from(s.kurtosis) - kurt).abs() < 1e-5);
+        assert!((f64::from(s.skewness) - skew).abs() < 1e-5);
+    }
+
+    #[test]
+    fn degenerate_and_non_finite_segments() {
+        assert_eq!(TimeStats::compute(&[1.0; 16]), Err(Error::Degenerate));
+        assert_eq!(TimeStats::compute(&[]), Err(Error::Degenerate));
+        assert_eq!(TimeStats::compute(&[1.0, f32::NAN]), Err(Error::NonFinite));
+    }
+
+    #[test]
+    fn spectral_stats_of_a_tone() {
+        let fs = 12_000.0;
+        let n = 256;
+        let x: Vec<f32> = (0..n)
+            .map(|i| (2.0 * math::PI * 1000.0 * i as f64 / fs).sin() as f32)
+            .collect();
+        let mut scratch = std::vec![Complex32::ZERO; n];
+        let mut p = std::vec![0.0f32; n / 2 + 1];
+        power_spectrum(&x, Window::Hann, &mut scratch, &mut p).unwrap();
+        let s = SpectralStats::compute(&p, fs as f32, 5000.0).unwrap();
+        assert!(
+            (s.dominant_hz - 1000.0).abs() < 10.0,
+            "dominant {}",
+            s.dominant_hz
+        );
+        assert!(
+            (s.centroid_hz - 1000.0).abs() < 30.0,
+            "centroid {}",
+            s.centroid_hz
+        );
+        assert!(s.bandwidth_hz < 100.0);
+        assert!(s.band_energy[0] > 0.99);
+        assert!((s.band_energy.iter().sum::<f32>() - 1.0).abs() < 1e-5);
+    }
+
+    /// An amplitude-modulated carrier: the envelope spectrum peaks at the modulation rate.
+    #[test]
+    fn envelope_spectrum_finds_the_modulation() {
+        let fs = 12_000.0f64;
+        let n = 8192;
+        let f_mod = 107.3;
+        let x: Vec<f32> = (0..n)
+            .map(|i| {
+                let t = i as f64 / fs;
+                ((1.0 + 0.8 * (2.0 * math::PI * f_mod * t).cos())
+                    * (2.0 * math::PI * 3000.0 * t).sin()) as f32
+            })
+            .collect();
+        let mut scratch = std::vec![Complex32::ZERO; n];
+        let mut env = std::vec![0.0f32; n];
+        let mut spec = std::vec![0.0f32; n / 2 + 1];
+        envelope_spectrum(
+            &x,
+            fs as f32,
+            EnvelopeBand::DEFAULT,
+            &mut scratch,
+            &mut env,
+            &mut spec,
+        )
+        .unwrap();
+        let f = peak_frequency(&spec, fs as f32, 20.0, 500.0).unwrap();
+        assert!((f - f_mod as f32).abs() < 0.5, "peak {f}");
+    }
+
+    /// Impacts at BPFI ringing a 3 kHz resonance: env_bpfi_db stands out, the others do not.
+    #[test]
+    fn node_features_flag_the_defect_frequency() {
+        const W: usize = 2048;
+        let fs = 12_000.0f64;
+        let shaft = 29.95f64;
+        let orders = BearingGeometry::CWRU_6205_DE.orders();
+        let bpfi = f64::from(orders.bpfi) * shaft;
+        let mut r = Xoshiro128pp::seed_from_u64(12);
+        let mut x = [0.0f32; W];
+        for (i, v) in x.iter_mut().enumerate() {
+            let t = i as f64 / fs;
+            let since = t % (1.0 / bpfi);
+            *v = ((-since * 900.0).exp() * (2.0 * math::PI * 3000.0 * since).sin()
+                + 0.05 * r.normal()) as f32;
+        }
+        let cfg = FeatureConfig {
+            fs_hz: fs as f32,
+            shaft_hz: shaft as f32,
+            orders,
+            envelope_band: EnvelopeBand::DEFAULT,
+            band_limit_hz: 5000.0,
+            segments: 8,
+        };
+        let mut scratch = FeatureScratch::<W>::new();
+        let mut out = [[0.0f32; FEATURE_DIM]; 8];
+        node_features(&x, &cfg, &mut scratch, &mut out).unwrap();
+        let e = &out[0][ENVELOPE_OFFSET..];
+        assert!(e[2] > 15.0, "bpfi level {}", e[2]);
+        assert!(e[2] > e[1] + 10.0 && e[2] > e[3] + 10.0, "{e:?}");
+        assert!(out.iter().all(|row| row.iter().all(|v| v.is_finite())));
+        // Rows share the envelope part, differ in the time part.
+        assert_eq!(out[0][ENVELOPE_OFFSET..], out[7][ENVELOPE_OFFSET..]);
+        // Dominant frequency of each segment is the 3 kHz resonance.
+        assert!((out[3][8] - 3000.0).abs() < 100.0, "dominant {}", out[3][8]);
+    }
+
+    #[test]
+    fn node_features_reject_bad_input() {
+        const W: usize = 256;
+        let cfg = FeatureConfig {
+            fs_hz: 12_000.0,
+            shaft_hz: 30.0,
+            orders: BearingGeometry::CWRU_6205_DE.orders(),
+            envelope_band: EnvelopeBand::DEFAULT,
+            band_limit_hz: 5000.0,
+            segments: 4,
+        };
+        let mut scratch = FeatureScratch::<W>::new();
+        let mut out = [[0.0f32; FEATURE_DIM]; 4];
+        let mut x = [0.0f32; W];
+        assert_eq!(
+            node_features(&x, &cfg, &mut scratch, &mut out),
+            Err(Error::Degenerate)
+        );
+        x[3] = f32::NAN;
+        assert_eq!(
+            node_features(&x, &cfg, &mut scratch, &mut out),
+            Err(Error::NonFinite)
+        );
+        let bad = FeatureConfig { segments: 3, ..cfg };
+        assert!(node_features(&[1.0; W], &bad, &mut scratch, &mut out[..3]).is_err());
+        let mut short = [[0.0f32; FEATURE_DIM]; 2];
+        assert!(matches!(
+            node_features(&[1.0; W], &cfg, &mut scratch, &mut short),
+            Err(Error::BufferSize { .. })
+        ));
+    }
+}

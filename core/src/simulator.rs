@@ -179,7 +179,9 @@ impl BearingParams {
             return Err(Error::InvalidParameter("damping must be >= 0"));
         }
         if self.stiffness_nl_radial < 0.0 || self.stiffness_nl_angular < 0.0 {
-            return Err(Error::InvalidParameter("cubic stiffness must be >= 0 (hardening)"));
+            return Err(Error::InvalidParameter(
+                "cubic stiffness must be >= 0 (hardening)",
+            ));
         }
         Ok(())
     }
@@ -242,8 +244,10 @@ impl<T: Real> Bearing2Dof<T> {
     /// Accelerations `(ẍ_r, ẍ_θ)` for a state and forces (the right-hand side of eq. 22).
     #[inline(always)]
     pub fn acceleration(&self, s: &State<T>, f_r: T, f_t: T) -> (T, T) {
-        let a_r = f_r * self.inv_m - self.c_r * s.v_r - (self.k_r + self.knl_r * s.x_r * s.x_r) * s.x_r;
-        let a_t = f_t * self.inv_m - self.c_t * s.v_t - (self.k_t + self.knl_t * s.x_t * s.x_t) * s.x_t;
+        let a_r =
+            f_r * self.inv_m - self.c_r * s.v_r - (self.k_r + self.knl_r * s.x_r * s.x_r) * s.x_r;
+        let a_t =
+            f_t * self.inv_m - self.c_t * s.v_t - (self.k_t + self.knl_t * s.x_t * s.x_t) * s.x_t;
         (a_r, a_t)
     }
 
@@ -324,10 +328,17 @@ impl<T: Real> Bearing2Dof<T> {
 
     /// Mechanical energy per unit mass: `½v² + ½k x² + ¼k_NL x⁴` summed over both DOFs.
     pub fn energy_per_mass(&self, s: &State<T>) -> f64 {
-        let (xr, xt, vr, vt) = (s.x_r.to_f64(), s.x_t.to_f64(), s.v_r.to_f64(), s.v_t.to_f64());
+        let (xr, xt, vr, vt) = (
+            s.x_r.to_f64(),
+            s.x_t.to_f64(),
+            s.v_r.to_f64(),
+            s.v_t.to_f64(),
+        );
         0.5 * (vr * vr + vt * vt)
             + 0.5 * (self.k_r.to_f64() * xr * xr + self.k_t.to_f64() * xt * xt)
-            + 0.25 * (self.knl_r.to_f64() * xr * xr * xr * xr + self.knl_t.to_f64() * xt * xt * xt * xt)
+            + 0.25
+                * (self.knl_r.to_f64() * xr * xr * xr * xr
+                    + self.knl_t.to_f64() * xt * xt * xt * xt)
     }
 }
 
@@ -380,7 +391,10 @@ mod tests {
         let wd = w * sqrt(1.0 - zeta * zeta);
         let h = 1.0 / 20_000.0;
         let x0 = 1e-3;
-        let mut s = State { x_r: x0, ..State::REST };
+        let mut s = State {
+            x_r: x0,
+            ..State::REST
+        };
         let mut max_err: f64 = 0.0;
         for k in 1..=20_000 {
             s = model.step(&s, h, (0.0, 0.0), (0.0, 0.0), (0.0, 0.0));
@@ -407,7 +421,13 @@ mod tests {
         let mut s = State::REST;
         let mut peak: f64 = 0.0;
         for k in 0..n {
-            s = model.step(&s, h, (fr[2 * k], 0.0), (fr[2 * k + 1], 0.0), (fr[2 * k + 2], 0.0));
+            s = model.step(
+                &s,
+                h,
+                (fr[2 * k], 0.0),
+                (fr[2 * k + 1], 0.0),
+                (fr[2 * k + 2], 0.0),
+            );
             if k > n / 2 {
                 peak = peak.max(s.x_r.abs());
             }
@@ -418,7 +438,9 @@ mod tests {
         // The batch API integrates exactly like the step API.
         let mut ar = std::vec![0.0f64; n];
         let mut at = std::vec![0.0f64; n];
-        let end = model.simulate(State::REST, h, &fr, &ft, &mut ar, &mut at).unwrap();
+        let end = model
+            .simulate(State::REST, h, &fr, &ft, &mut ar, &mut at)
+            .unwrap();
         assert_eq!(end, s);
         let (a0, _) = model.acceleration(&State::REST, fr[0], 0.0);
         assert_eq!(ar[0], a0);
@@ -431,7 +453,11 @@ mod tests {
         let p = BearingParams::default_housing();
         let model = Bearing2Dof::<f64>::new(&p).unwrap();
         let h = 1.0 / 480_000.0;
-        let mut s = State { x_r: 2e-6, x_t: -1e-6, ..State::REST };
+        let mut s = State {
+            x_r: 2e-6,
+            x_t: -1e-6,
+            ..State::REST
+        };
         let e0 = model.energy_per_mass(&s);
         let force = |t: f64| 50.0 * sin(2.0 * PI * 700.0 * t);
         let (mut work, mut dissipated) = (0.0, 0.0);
@@ -451,13 +477,19 @@ mod tests {
         let e1 = model.energy_per_mass(&s);
         let balance = (e1 - e0) - (work - dissipated);
         let scale = e0.max(e1).max(work.abs()).max(dissipated);
-        assert!(balance.abs() / scale < 1e-4, "energy imbalance {balance} of {scale}");
+        assert!(
+            balance.abs() / scale < 1e-4,
+            "energy imbalance {balance} of {scale}"
+        );
     }
 
     /// Zero-crossing frequency of free oscillation for an initial displacement.
     fn free_frequency(model: &Bearing2Dof<f64>, x0: f64) -> f64 {
         let h = 1.0 / 1_000_000.0;
-        let mut s = State { x_r: x0, ..State::REST };
+        let mut s = State {
+            x_r: x0,
+            ..State::REST
+        };
         let mut crossings = [0.0f64; 11];
         let mut c = 0;
         let mut prev = s.x_r;
@@ -487,12 +519,21 @@ mod tests {
         let f_small = free_frequency(&model, 1e-8);
         let f_mid = free_frequency(&model, 1e-6);
         let f_big = free_frequency(&model, 3e-6);
-        assert!((f_small / 3000.0 - 1.0).abs() < 1e-3, "small-amplitude {f_small}");
-        assert!(f_mid > f_small * 1.005 && f_big > f_mid * 1.05, "{f_small} {f_mid} {f_big}");
+        assert!(
+            (f_small / 3000.0 - 1.0).abs() < 1e-3,
+            "small-amplitude {f_small}"
+        );
+        assert!(
+            f_mid > f_small * 1.005 && f_big > f_mid * 1.05,
+            "{f_small} {f_mid} {f_big}"
+        );
         // Duffing first-order estimate: ω² ≈ ω0² + ¾ k_NL/m · A².
         let w0 = 2.0 * PI * 3000.0;
         let est = sqrt(w0 * w0 + 0.75 * p.stiffness_nl_radial * 1e-12) / (2.0 * PI);
-        assert!((f_mid / est - 1.0).abs() < 0.01, "f_mid {f_mid} vs Duffing {est}");
+        assert!(
+            (f_mid / est - 1.0).abs() < 0.01,
+            "f_mid {f_mid} vs Duffing {est}"
+        );
 
         p.stiffness_nl_radial = 0.0;
         let lin = Bearing2Dof::<f64>::new(&p).unwrap();
@@ -543,9 +584,13 @@ mod tests {
         let ar = [1.0f64, 2.0, 3.0, 4.0];
         let at = [10.0f64, 20.0, 30.0, 40.0];
         let mut out = [0.0f32; 4];
-        SensorTransfer { gain_radial: 1.0, gain_angular: 0.5, delay_samples: 1 }
-            .apply(&ar, &at, &mut out)
-            .unwrap();
+        SensorTransfer {
+            gain_radial: 1.0,
+            gain_angular: 0.5,
+            delay_samples: 1,
+        }
+        .apply(&ar, &at, &mut out)
+        .unwrap();
         assert_eq!(out, [0.0, 6.0, 12.0, 18.0]);
     }
 }
