@@ -128,7 +128,7 @@ impl TimeStats {
             m4 += d2 * d2;
         }
         let (m2, m3, m4) = (m2 / n, m3 / n, m4 / n);
-        if m2 <= 1e-30 || !(hi > lo) {
+        if m2 <= 1e-30 || hi <= lo {
             return Err(Error::Degenerate);
         }
         let rms = math::sqrt(sum_sq / n);
@@ -355,7 +355,7 @@ pub fn harmonic_level_db(
         sum += best;
         used += 1;
     }
-    if used == 0 || !(floor > 0.0) {
+    if used == 0 || floor.is_nan() || floor <= 0.0 {
         return 0.0;
     }
     10.0 * math::log10f(sum / (used as f32 * floor) + 1e-12)

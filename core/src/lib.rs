@@ -38,3 +38,11 @@ pub mod simulator;
 pub mod units;
 
 pub use error::{Error, Result};
+
+/// Negative control for the no-alloc proof (feature `_alloc_canary`, never for real use).
+#[cfg(feature = "_alloc_canary")]
+#[doc(hidden)]
+pub fn alloc_canary() -> usize {
+    extern crate alloc;
+    alloc::vec![1u8; 3].len()
+}

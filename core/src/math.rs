@@ -17,16 +17,8 @@ pub(crate) fn sqrt(x: f64) -> f64 {
     libm::sqrt(x)
 }
 #[inline]
-pub(crate) fn expf(x: f32) -> f32 {
-    libm::expf(x)
-}
-#[inline]
 pub(crate) fn exp(x: f64) -> f64 {
     libm::exp(x)
-}
-#[inline]
-pub(crate) fn lnf(x: f32) -> f32 {
-    libm::logf(x)
 }
 #[inline]
 pub(crate) fn ln(x: f64) -> f64 {
@@ -43,10 +35,6 @@ pub(crate) fn cos(x: f64) -> f64 {
 #[inline]
 pub(crate) fn log10f(x: f32) -> f32 {
     libm::log10f(x)
-}
-#[inline]
-pub(crate) fn roundf(x: f32) -> f32 {
-    libm::roundf(x)
 }
 #[inline]
 pub(crate) fn floor(x: f64) -> f64 {
@@ -70,10 +58,7 @@ mod tests {
         assert!((sin(PI / 6.0) - 0.5).abs() < MAX_ERROR);
         assert!((cos(PI / 3.0) - 0.5).abs() < MAX_ERROR);
         assert!((sqrtf(4.0) - 2.0).abs() < 1e-7);
-        assert!((expf(0.0) - 1.0).abs() < 1e-7);
-        assert!((lnf(1.0)).abs() < 1e-7);
         assert!((log10f(100.0) - 2.0).abs() < 1e-6);
-        assert_eq!(roundf(2.5), 3.0);
         assert_eq!(floor(-0.5), -1.0);
     }
 }

@@ -307,7 +307,7 @@ impl<T: Real> Bearing2Dof<T> {
         expect_len(accel_t.len(), n)?;
         expect_len(force_r.len(), 2 * n + 1)?;
         expect_len(force_t.len(), 2 * n + 1)?;
-        if !(h > T::ZERO) || !h.is_finite() {
+        if h.partial_cmp(&T::ZERO) != Some(core::cmp::Ordering::Greater) || !h.is_finite() {
             return Err(Error::InvalidParameter("time step must be finite and > 0"));
         }
         let mut s = state;
