@@ -477,7 +477,13 @@ pub fn node_features<const W: usize>(
             &mut scratch.env,
             spec_out,
         )?;
-        let env_stats = envelope_kurtosis(x, cfg, &mut scratch.spectrum, &mut scratch.env)?;
+        // `env` now holds e(t) − mean(e): kurtosis is shift-invariant, so the
+        // envelope's kurtosis comes from the same buffer without a second transform.
+        let env_stats = match TimeStats::compute(&scratch.env) {
+            Ok(s) => s.kurtosis,
+            Err(Error::Degenerate) => 0.0,
+            Err(e) => return Err(e),
+        };
         let df = cfg.fs_hz / W as f32;
         let max_f = cfg
             .orders
@@ -539,21 +545,6 @@ pub fn node_features<const W: usize>(
         ]);
     }
     Ok(())
-}
-
-/// Kurtosis of the band-passed envelope (impulsiveness of the demodulated signal).
-fn envelope_kurtosis(
-    x: &[f32],
-    cfg: &FeatureConfig,
-    scratch: &mut [Complex32],
-    env: &mut [f32],
-) -> Result<f32> {
-    envelope(x, cfg.fs_hz, cfg.envelope_band, scratch, env)?;
-    match TimeStats::compute(env) {
-        Ok(s) => Ok(s.kurtosis),
-        Err(Error::Degenerate) => Ok(0.0),
-        Err(e) => Err(e),
-    }
 }
 
 #[cfg(test)]

@@ -134,10 +134,28 @@ pub fn power_spectrum(
     crate::error::expect_len(scratch.len(), n)?;
     crate::error::expect_len(out.len(), n / 2 + 1)?;
     let mut wsum = 0.0f32;
-    for (i, (z, &v)) in scratch.iter_mut().zip(x.iter()).enumerate() {
-        let w = window.weight(i, n);
-        wsum += w * w;
-        *z = Complex32::new(v * w, 0.0);
+    match window {
+        Window::Rectangular => {
+            for (z, &v) in scratch.iter_mut().zip(x.iter()) {
+                *z = Complex32::new(v, 0.0);
+            }
+            wsum = n as f32;
+        }
+        Window::Hann => {
+            // cos(2πi/n) by a rotation recurrence in f64 (error ≈ i·ε_f64), not one
+            // libm call per sample: this loop runs for every segment of every node.
+            let theta = 2.0 * math::PI / n as f64;
+            let (c1, s1) = (math::cos(theta), math::sin(theta));
+            let (mut c, mut s) = (1.0f64, 0.0f64);
+            for (z, &v) in scratch.iter_mut().zip(x.iter()) {
+                let w = (0.5 - 0.5 * c) as f32;
+                wsum += w * w;
+                *z = Complex32::new(v * w, 0.0);
+                let next = c * c1 - s * s1;
+                s = s * c1 + c * s1;
+                c = next;
+            }
+        }
     }
     fft_in_place(scratch, Direction::Forward)?;
     let norm = 1.0 / (n as f32 * wsum);
