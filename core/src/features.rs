@@ -547,6 +547,43 @@ pub fn node_features<const W: usize>(
     Ok(())
 }
 
+/// Per-feature standardization `(x − mean) / std`, fitted on training windows by the
+/// trainer and shipped in the model file, so that graph construction (eq. 1) and the
+/// network see every feature on the same scale on host and edge.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FeatureNorm {
+    /// Mean of each feature.
+    pub mean: [f32; FEATURE_DIM],
+    /// Standard deviation of each feature (> 0).
+    pub std: [f32; FEATURE_DIM],
+}
+
+impl FeatureNorm {
+    /// The identity transform.
+    pub const IDENTITY: Self = Self {
+        mean: [0.0; FEATURE_DIM],
+        std: [1.0; FEATURE_DIM],
+    };
+
+    /// Checked constructor: finite means, finite strictly positive deviations.
+    pub fn new(mean: [f32; FEATURE_DIM], std: [f32; FEATURE_DIM]) -> Result<Self> {
+        if mean.iter().chain(std.iter()).any(|v| !v.is_finite()) {
+            return Err(Error::NonFinite);
+        }
+        if std.iter().any(|&s| s <= 0.0) {
+            return Err(Error::InvalidParameter("feature std must be > 0"));
+        }
+        Ok(Self { mean, std })
+    }
+
+    /// Standardize one row in place.
+    pub fn apply(&self, row: &mut [f32; FEATURE_DIM]) {
+        for ((v, m), s) in row.iter_mut().zip(self.mean.iter()).zip(self.std.iter()) {
+            *v = (*v - m) / s;
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -685,6 +722,27 @@ mod tests {
         assert_eq!(out[0][ENVELOPE_OFFSET..], out[7][ENVELOPE_OFFSET..]);
         // Dominant frequency of each segment is the 3 kHz resonance.
         assert!((out[3][8] - 3000.0).abs() < 100.0, "dominant {}", out[3][8]);
+    }
+
+    #[test]
+    fn feature_norm_standardizes_and_checks() {
+        let mut mean = [0.0; FEATURE_DIM];
+        let mut std = [1.0; FEATURE_DIM];
+        mean[1] = 2.0;
+        std[1] = 4.0;
+        let n = FeatureNorm::new(mean, std).unwrap();
+        let mut row = [1.0; FEATURE_DIM];
+        row[1] = 10.0;
+        n.apply(&mut row);
+        assert_eq!(row[1], 2.0);
+        assert_eq!(row[0], 1.0);
+        std[3] = 0.0;
+        assert!(FeatureNorm::new(mean, std).is_err());
+        mean[0] = f32::NAN;
+        assert_eq!(
+            FeatureNorm::new(mean, [1.0; FEATURE_DIM]),
+            Err(Error::NonFinite)
+        );
     }
 
     #[test]

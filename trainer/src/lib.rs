@@ -1,1 +1,9 @@
-//! pumptwin host side.
+//! pumptwin host side: data loading, windowing and splits, simulation, features,
+//! plots. Physics, features and graphs come from `pumptwin_core` (one source of truth
+//! shared with the edge and firmware); this crate orchestrates them on records.
+#![forbid(unsafe_code)]
+
+pub mod data;
+pub mod featurize;
+pub mod plot;
+pub mod sim;

@@ -1,0 +1,293 @@
+//! CSV recordings: a header row of channel names, then one column per channel and
+//! one row per sample instant.
+//!
+//! ```text
+//! # optional comment lines, anywhere
+//! DE,FE,BA
+//! 0.0132,-0.0410,0.0051
+//! ...
+//! ```
+//!
+//! The delimiter (comma, semicolon or tab) is detected from the header row and then
+//! required on every row. A file with a single column has no delimiter at all.
+//!
+//! A CSV carries no sampling rate or shaft speed, and guessing either would silently
+//! distort every frequency feature, so both come from the caller (CLI flags); there
+//! are no defaults. Every cell must be a finite number: a blank, text, NaN or infinite
+//! cell is an error that names the line and the column, never a skipped row, because a
+//! dropped sample shifts the time base of everything after it.
+
+use std::path::Path;
+
+use super::record::{Channel, Recording};
+
+/// Errors reading a CSV recording.
+#[non_exhaustive]
+#[derive(Debug, thiserror::Error)]
+pub enum CsvError {
+    /// No header row (the file is empty or only comments).
+    #[error("no header row (the file is empty or holds only comments)")]
+    MissingHeader,
+    /// A header cell is empty or repeated.
+    #[error("header: {reason}")]
+    BadHeader {
+        /// What is wrong.
+        reason: String,
+    },
+    /// A row has a different number of cells than the header.
+    #[error("line {line}: {got} cells, but the header names {expected} channels (delimiter {delimiter:?})")]
+    Ragged {
+        /// 1-based line number in the file.
+        line: usize,
+        /// Number of header columns.
+        expected: usize,
+        /// Cells on this line.
+        got: usize,
+        /// The detected delimiter.
+        delimiter: char,
+    },
+    /// A cell is not a number.
+    #[error("line {line}, column `{column}`: {cell:?} is not a number")]
+    NotANumber {
+        /// 1-based line number in the file.
+        line: usize,
+        /// Header name of the column.
+        column: String,
+        /// The cell text.
+        cell: String,
+    },
+    /// A cell is NaN or infinite (or overflows `f32`).
+    #[error("line {line}, column `{column}`: {cell:?} is not finite")]
+    NonFinite {
+        /// 1-based line number in the file.
+        line: usize,
+        /// Header name of the column.
+        column: String,
+        /// The cell text.
+        cell: String,
+    },
+    /// The header is there but no data rows follow.
+    #[error("no data rows after the header")]
+    NoRows,
+    /// Sampling rate or speed is not a positive finite number.
+    #[error("{what} must be a positive finite number, got {value}")]
+    InvalidParameter {
+        /// `fs_hz` or `rpm`.
+        what: &'static str,
+        /// The value given.
+        value: f32,
+    },
+}
+
+/// Pick the delimiter from the header row: the most frequent of `,`, `;`, tab;
+/// `None` when the header has none of them (a single channel).
+fn detect_delimiter(header: &str) -> Option<char> {
+    [',', ';', '\t']
+        .into_iter()
+        .map(|d| (header.matches(d).count(), d))
+        .filter(|(n, _)| *n > 0)
+        .max_by_key(|(n, _)| *n)
+        .map(|(_, d)| d)
+}
+
+/// Split a line into trimmed cells (no delimiter → one cell).
+fn cells(line: &str, delimiter: Option<char>) -> Vec<&str> {
+    match delimiter {
+        Some(d) => line.split(d).map(str::trim).collect(),
+        None => vec![line.trim()],
+    }
+}
+
+/// Parse CSV text into a [`Recording`] named `name`, sampled at `fs_hz`, with an
+/// optional shaft speed `rpm` (both from the caller).
+pub fn parse_csv(
+    text: &str,
+    name: &str,
+    fs_hz: f32,
+    rpm: Option<f32>,
+) -> Result<Recording, CsvError> {
+    if !(fs_hz.is_finite() && fs_hz > 0.0) {
+        return Err(CsvError::InvalidParameter {
+            what: "fs_hz",
+            value: fs_hz,
+        });
+    }
+    if let Some(r) = rpm.filter(|r| !(r.is_finite() && *r > 0.0)) {
+        return Err(CsvError::InvalidParameter {
+            what: "rpm",
+            value: r,
+        });
+    }
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| (i + 1, l.trim_end_matches('\r')))
+        .filter(|(_, l)| {
+            let t = l.trim_start();
+            !t.is_empty() && !t.starts_with('#')
+        });
+    let (_, header) = lines.next().ok_or(CsvError::MissingHeader)?;
+    let header = header.trim_start_matches('\u{feff}');
+    let delimiter = detect_delimiter(header);
+    let names: Vec<String> = cells(header, delimiter)
+        .into_iter()
+        .map(|c| c.trim_matches('"').to_string())
+        .collect();
+    for (i, n) in names.iter().enumerate() {
+        if n.is_empty() {
+            return Err(CsvError::BadHeader {
+                reason: format!("column {} has no name", i + 1),
+            });
+        }
+        if names[..i].contains(n) {
+            return Err(CsvError::BadHeader {
+                reason: format!("channel name `{n}` appears twice"),
+            });
+        }
+    }
+    let mut columns: Vec<Vec<f32>> = vec![Vec::new(); names.len()];
+    for (line, text) in lines {
+        let row = cells(text, delimiter);
+        if row.len() != names.len() {
+            return Err(CsvError::Ragged {
+                line,
+                expected: names.len(),
+                got: row.len(),
+                delimiter: delimiter.unwrap_or(','),
+            });
+        }
+        for ((cell, column), name) in row.into_iter().zip(columns.iter_mut()).zip(&names) {
+            let value: f64 = cell.parse().map_err(|_| CsvError::NotANumber {
+                line,
+                column: name.clone(),
+                cell: cell.to_string(),
+            })?;
+            let value = value as f32;
+            if !value.is_finite() {
+                return Err(CsvError::NonFinite {
+                    line,
+                    column: name.clone(),
+                    cell: cell.to_string(),
+                });
+            }
+            column.push(value);
+        }
+    }
+    if columns.first().is_none_or(Vec::is_empty) {
+        return Err(CsvError::NoRows);
+    }
+    Ok(Recording {
+        name: name.to_string(),
+        fs_hz,
+        rpm,
+        channels: names
+            .into_iter()
+            .zip(columns)
+            .map(|(name, samples)| Channel { name, samples })
+            .collect(),
+    })
+}
+
+/// Name a recording after its file stem.
+pub(crate) fn stem_name(path: &Path) -> String {
+    path.file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| path.display().to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reads_channels_with_each_delimiter() {
+        for d in [",", ";", "\t"] {
+            let text =
+                format!("# pump P-101, bearing 6205\nDE{d}FE\n1.5{d}-2\n# pause\n\n3e-3{d} 4 \r\n");
+            let rec = parse_csv(&text, "p101", 25_600.0, Some(2950.0)).expect("valid csv");
+            assert_eq!(rec.fs_hz, 25_600.0);
+            assert_eq!(rec.rpm, Some(2950.0));
+            assert_eq!(rec.channels.len(), 2);
+            assert_eq!(rec.channels[0].name, "DE");
+            assert_eq!(rec.channels[0].samples, vec![1.5, 3e-3]);
+            assert_eq!(rec.channels[1].name, "FE");
+            assert_eq!(rec.channels[1].samples, vec![-2.0, 4.0]);
+        }
+    }
+
+    #[test]
+    fn single_column_and_quoted_header() {
+        let rec = parse_csv("\"acc\"\n1\n2\n3\n", "x", 1000.0, None).expect("valid");
+        assert_eq!(rec.channels.len(), 1);
+        assert_eq!(rec.channels[0].name, "acc");
+        assert_eq!(rec.channels[0].samples, vec![1.0, 2.0, 3.0]);
+    }
+
+    #[test]
+    fn bad_cells_name_line_and_column() {
+        let err = parse_csv("DE,FE\n1,2\n3,abc\n", "x", 1000.0, None).expect_err("text cell");
+        assert!(
+            matches!(&err, CsvError::NotANumber { line: 3, column, .. } if column == "FE"),
+            "{err}"
+        );
+        for bad in ["NaN", "inf", "-Infinity", "1e40"] {
+            let err = parse_csv(&format!("DE,FE\n{bad},2\n"), "x", 1000.0, None).expect_err(bad);
+            assert!(
+                matches!(&err, CsvError::NonFinite { line: 2, column, .. } if column == "DE"),
+                "{err}"
+            );
+        }
+        let err = parse_csv("DE,FE\n1,2\n\n3\n", "x", 1000.0, None).expect_err("ragged");
+        assert!(
+            matches!(
+                err,
+                CsvError::Ragged {
+                    line: 4,
+                    expected: 2,
+                    got: 1,
+                    ..
+                }
+            ),
+            "{err}"
+        );
+        let err = parse_csv("DE,FE\n1,2,3\n", "x", 1000.0, None).expect_err("ragged");
+        assert!(matches!(err, CsvError::Ragged { got: 3, .. }), "{err}");
+        let err = parse_csv("DE,FE\n1,\n", "x", 1000.0, None).expect_err("blank cell");
+        assert!(matches!(err, CsvError::NotANumber { .. }), "{err}");
+    }
+
+    #[test]
+    fn header_and_parameter_errors() {
+        assert!(matches!(
+            parse_csv("# only\n", "x", 1.0, None),
+            Err(CsvError::MissingHeader)
+        ));
+        assert!(matches!(
+            parse_csv("DE,FE\n", "x", 1.0, None),
+            Err(CsvError::NoRows)
+        ));
+        assert!(matches!(
+            parse_csv("DE,DE\n1,2\n", "x", 1.0, None),
+            Err(CsvError::BadHeader { .. })
+        ));
+        assert!(matches!(
+            parse_csv("DE,\n1,2\n", "x", 1.0, None),
+            Err(CsvError::BadHeader { .. })
+        ));
+        assert!(matches!(
+            parse_csv("DE\n1\n", "x", 0.0, None),
+            Err(CsvError::InvalidParameter { what: "fs_hz", .. })
+        ));
+        assert!(matches!(
+            parse_csv("DE\n1\n", "x", 1.0, Some(f32::NAN)),
+            Err(CsvError::InvalidParameter { what: "rpm", .. })
+        ));
+    }
+
+    #[test]
+    fn delimiter_comes_from_the_header() {
+        // Semicolon header: a comma inside a cell is not a delimiter, so "1,5" is a bad number.
+        let err = parse_csv("DE;FE\n1,5;2\n", "x", 1.0, None).expect_err("decimal comma");
+        assert!(matches!(err, CsvError::NotANumber { .. }), "{err}");
+    }
+}

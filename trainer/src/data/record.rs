@@ -1,0 +1,640 @@
+//! A measured recording (channels of samples at one rate) and the loaders that make
+//! one from a CWRU `.mat` file or a CSV file.
+//!
+//! CWRU files name their variables after the file number: `X105_DE_time`,
+//! `X105_FE_time`, `X105_BA_time` (drive-end, fan-end and base accelerometers) and
+//! `X105RPM`. Some files carry a second record's variables too (99.mat also holds
+//! `X098_*`), so variables are picked by the file number; only when nothing matches
+//! it (e.g. a renamed file such as `IR007_0.mat`) are they picked by suffix, taking
+//! the number that occurs most often so that one record's channels stay together.
+//!
+//! The sampling rate is not in the `.mat` file; it comes from the caller or from the
+//! data set's `MANIFEST.tsv`. The shaft speed comes from the file's `RPM` variable
+//! when present (it was measured with the data), else from the caller.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use super::csv::{parse_csv, stem_name, CsvError};
+use super::manifest::{parse_manifest, ManifestError, MANIFEST_FILE};
+use super::mat::{read_mat, MatError, MatFile, MatVariable};
+use super::preprocess::PreprocessError;
+
+/// CWRU channel names in the order a [`Recording`] lists them.
+pub const CWRU_CHANNELS: [&str; 3] = ["DE", "FE", "BA"];
+
+/// One sensor's samples.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Channel {
+    /// `DE`, `FE`, `BA` for CWRU data; the header name for CSV.
+    pub name: String,
+    /// Samples (accelerations, in g for CWRU) at the recording's rate.
+    pub samples: Vec<f32>,
+}
+
+/// Simultaneously sampled channels of one measurement.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Recording {
+    /// Name (file stem, e.g. `105`).
+    pub name: String,
+    /// Sampling rate in Hz.
+    pub fs_hz: f32,
+    /// Shaft speed in rpm, if known.
+    pub rpm: Option<f32>,
+    /// Channels, all of the same length.
+    pub channels: Vec<Channel>,
+}
+
+impl Recording {
+    /// Samples per channel (0 without channels).
+    pub fn len(&self) -> usize {
+        self.channels.first().map_or(0, |c| c.samples.len())
+    }
+
+    /// Whether the recording holds no samples.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Duration in seconds.
+    pub fn duration_s(&self) -> f64 {
+        self.len() as f64 / f64::from(self.fs_hz)
+    }
+
+    /// The channel called `name`, if present.
+    pub fn channel(&self, name: &str) -> Option<&Channel> {
+        self.channels.iter().find(|c| c.name == name)
+    }
+
+    /// Check what every consumer relies on: a positive finite rate (and speed), at
+    /// least one channel, equal channel lengths, and finite samples.
+    pub fn validate(&self) -> Result<(), DataError> {
+        check_positive("fs_hz", self.fs_hz)?;
+        if let Some(rpm) = self.rpm {
+            check_positive("rpm", rpm)?;
+        }
+        let Some(first) = self.channels.first() else {
+            return Err(DataError::NoChannels {
+                record: self.name.clone(),
+                present: String::new(),
+            });
+        };
+        if self
+            .channels
+            .iter()
+            .any(|c| c.samples.len() != first.samples.len())
+        {
+            return Err(DataError::UnequalChannelLengths {
+                record: self.name.clone(),
+                lengths: self
+                    .channels
+                    .iter()
+                    .map(|c| format!("{} {}", c.name, c.samples.len()))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            });
+        }
+        for c in &self.channels {
+            if let Some(index) = c.samples.iter().position(|x| !x.is_finite()) {
+                return Err(DataError::NonFiniteSample {
+                    record: self.name.clone(),
+                    channel: c.name.clone(),
+                    index,
+                    value: f64::from(c.samples[index]),
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Errors loading or checking a recording.
+#[non_exhaustive]
+#[derive(Debug, thiserror::Error)]
+pub enum DataError {
+    /// A file could not be read.
+    #[error("cannot read {}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The underlying error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A `.mat` file is malformed.
+    #[error("cannot parse MAT file {}", path.display())]
+    Mat {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        #[source]
+        source: MatError,
+    },
+    /// A CSV file is malformed.
+    #[error("cannot parse CSV file {}", path.display())]
+    Csv {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        #[source]
+        source: CsvError,
+    },
+    /// The manifest is malformed.
+    #[error("cannot use the data-set manifest")]
+    Manifest(#[from] ManifestError),
+    /// The file extension is not one this loader knows.
+    #[error("{}: unsupported file type (expected .mat or .csv)", path.display())]
+    UnsupportedFormat {
+        /// The file.
+        path: PathBuf,
+    },
+    /// No sampling rate was given and none could be found.
+    #[error(
+        "{}: sampling rate unknown — pass it explicitly (e.g. --fs 12000){}",
+        path.display(),
+        if *manifest_searched { " or keep the .mat file beside a MANIFEST.tsv that lists it" } else { "" }
+    )]
+    MissingSamplingRate {
+        /// The file.
+        path: PathBuf,
+        /// Whether a manifest could have supplied it.
+        manifest_searched: bool,
+    },
+    /// A parameter is not a positive finite number.
+    #[error("{what} must be a positive finite number, got {value}")]
+    InvalidParameter {
+        /// Which parameter.
+        what: &'static str,
+        /// The value.
+        value: f32,
+    },
+    /// No channel variables were found.
+    #[error(
+        "{record}: no channels found (looked for X<nnn>_DE_time, _FE_time, _BA_time); \
+         variables present: [{present}]"
+    )]
+    NoChannels {
+        /// Recording name.
+        record: String,
+        /// Names of the variables that are present.
+        present: String,
+    },
+    /// A channel variable is a matrix, not a vector.
+    #[error("{record}: variable `{variable}` has dimensions {dims:?}, expected a vector")]
+    NotAVector {
+        /// Recording name.
+        record: String,
+        /// Variable name.
+        variable: String,
+        /// Its dimensions.
+        dims: Vec<usize>,
+    },
+    /// A sample is NaN or infinite (or overflows `f32`).
+    #[error("{record}: channel {channel}: sample {index} is not finite ({value})")]
+    NonFiniteSample {
+        /// Recording name.
+        record: String,
+        /// Channel name.
+        channel: String,
+        /// 0-based sample index.
+        index: usize,
+        /// The value as read.
+        value: f64,
+    },
+    /// Channels of one recording differ in length.
+    #[error("{record}: channels differ in length ({lengths})")]
+    UnequalChannelLengths {
+        /// Recording name.
+        record: String,
+        /// `name length` per channel.
+        lengths: String,
+    },
+    /// Preprocessing failed.
+    #[error("cannot preprocess {record}")]
+    Preprocess {
+        /// Recording name.
+        record: String,
+        /// What went wrong.
+        #[source]
+        source: PreprocessError,
+    },
+}
+
+fn check_positive(what: &'static str, value: f32) -> Result<(), DataError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(())
+    } else {
+        Err(DataError::InvalidParameter { what, value })
+    }
+}
+
+/// Split a CWRU variable name `X<digits><suffix>` into number and suffix.
+fn cwru_number(name: &str) -> Option<(u32, &str)> {
+    let rest = name.strip_prefix('X')?;
+    let digits = rest.len() - rest.trim_start_matches(|c: char| c.is_ascii_digit()).len();
+    let number = rest[..digits].parse().ok()?;
+    Some((number, &rest[digits..]))
+}
+
+/// The CWRU file number in a file stem (`105` → 105; `IR007_0` → none).
+pub fn file_number_from_stem(path: &Path) -> Option<u32> {
+    path.file_stem()?.to_str()?.parse().ok()
+}
+
+/// Pick the variable ending in `suffix` (`_DE_time`, `RPM`, …) for file `number`, or,
+/// when `number` is `None`, the one whose number occurs most often in the file.
+fn pick<'m>(
+    mat: &'m MatFile,
+    suffix: &str,
+    number: Option<u32>,
+    counts: &HashMap<u32, usize>,
+) -> Option<&'m MatVariable> {
+    let candidates = mat
+        .variables
+        .iter()
+        .filter_map(|v| cwru_number(&v.name).map(|(n, s)| (v, n, s)))
+        .filter(|(_, _, s)| *s == suffix);
+    match number {
+        Some(number) => candidates
+            .filter(|(_, n, _)| *n == number)
+            .map(|(v, _, _)| v)
+            .next(),
+        // max_by_key keeps the last maximum; reverse so the first in file order wins ties.
+        None => candidates
+            .collect::<Vec<_>>()
+            .into_iter()
+            .rev()
+            .max_by_key(|(_, n, _)| counts.get(n).copied().unwrap_or(0))
+            .map(|(v, _, _)| v),
+    }
+}
+
+/// Convert a CWRU vector variable to `f32` samples, rejecting non-finite values.
+fn channel_samples(record: &str, channel: &str, v: &MatVariable) -> Result<Vec<f32>, DataError> {
+    if !v.is_vector() {
+        return Err(DataError::NotAVector {
+            record: record.to_string(),
+            variable: v.name.clone(),
+            dims: v.dims.clone(),
+        });
+    }
+    v.data
+        .iter()
+        .enumerate()
+        .map(|(index, &x)| {
+            let y = x as f32;
+            if y.is_finite() {
+                Ok(y)
+            } else {
+                Err(DataError::NonFiniteSample {
+                    record: record.to_string(),
+                    channel: channel.to_string(),
+                    index,
+                    value: x,
+                })
+            }
+        })
+        .collect()
+}
+
+/// Build a [`Recording`] from a parsed CWRU MAT file.
+///
+/// `file_number` selects the variables (`X<nnn>_…`, zero-padded to 3 digits); see the
+/// module docs for the fallback when it matches nothing. `rpm` is used only when the
+/// file has no matching `RPM` variable.
+pub fn recording_from_cwru_mat(
+    mat: &MatFile,
+    name: &str,
+    file_number: Option<u32>,
+    fs_hz: f32,
+    rpm: Option<f32>,
+) -> Result<Recording, DataError> {
+    check_positive("fs_hz", fs_hz)?;
+    if let Some(r) = rpm {
+        check_positive("rpm", r)?;
+    }
+    let mut counts: HashMap<u32, usize> = HashMap::new();
+    for v in &mat.variables {
+        if let Some((n, suffix)) = cwru_number(&v.name) {
+            let known =
+                suffix == "RPM" || CWRU_CHANNELS.iter().any(|c| suffix == format!("_{c}_time"));
+            if known {
+                *counts.entry(n).or_default() += 1;
+            }
+        }
+    }
+    let by_number = file_number.filter(|n| {
+        CWRU_CHANNELS
+            .iter()
+            .any(|c| pick(mat, &format!("_{c}_time"), Some(*n), &counts).is_some())
+    });
+    let mut channels = Vec::new();
+    for c in CWRU_CHANNELS {
+        if let Some(v) = pick(mat, &format!("_{c}_time"), by_number, &counts) {
+            channels.push(Channel {
+                name: c.to_string(),
+                samples: channel_samples(name, c, v)?,
+            });
+        }
+    }
+    if channels.is_empty() {
+        return Err(DataError::NoChannels {
+            record: name.to_string(),
+            present: mat
+                .variables
+                .iter()
+                .map(|v| v.name.as_str())
+                .collect::<Vec<_>>()
+                .join(", "),
+        });
+    }
+    let file_rpm = pick(mat, "RPM", by_number, &counts)
+        .and_then(|v| v.data.first().copied())
+        .map(|x| x as f32)
+        .filter(|x| x.is_finite() && *x > 0.0);
+    let recording = Recording {
+        name: name.to_string(),
+        fs_hz,
+        rpm: file_rpm.or(rpm),
+        channels,
+    };
+    recording.validate()?;
+    Ok(recording)
+}
+
+/// Load a CWRU `.mat` file sampled at `fs_hz`. The file number is `file_number` or,
+/// when `None`, the file stem if it is a number.
+pub fn load_cwru_mat(
+    path: &Path,
+    file_number: Option<u32>,
+    fs_hz: f32,
+    rpm: Option<f32>,
+) -> Result<Recording, DataError> {
+    let bytes = std::fs::read(path).map_err(|source| DataError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let mat = read_mat(&bytes).map_err(|source| DataError::Mat {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let number = file_number.or_else(|| file_number_from_stem(path));
+    recording_from_cwru_mat(&mat, &stem_name(path), number, fs_hz, rpm)
+}
+
+/// Load a CSV recording sampled at `fs_hz`.
+pub fn load_csv(path: &Path, fs_hz: f32, rpm: Option<f32>) -> Result<Recording, DataError> {
+    let text = std::fs::read_to_string(path).map_err(|source| DataError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let recording =
+        parse_csv(&text, &stem_name(path), fs_hz, rpm).map_err(|source| DataError::Csv {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    recording.validate()?;
+    Ok(recording)
+}
+
+/// The sampling rate a `MANIFEST.tsv` in the file's directory or the one above lists
+/// for `path`, if any.
+pub fn manifest_fs_hz(path: &Path) -> Result<Option<f32>, DataError> {
+    let target = path.canonicalize().unwrap_or_else(|_| path.to_path_buf());
+    for dir in path.ancestors().skip(1).take(2) {
+        let dir = if dir.as_os_str().is_empty() {
+            Path::new(".")
+        } else {
+            dir
+        };
+        let manifest = dir.join(MANIFEST_FILE);
+        if !manifest.is_file() {
+            continue;
+        }
+        let text = std::fs::read_to_string(&manifest).map_err(|source| DataError::Io {
+            path: manifest.clone(),
+            source,
+        })?;
+        let entries = parse_manifest(&text, dir)?;
+        let found = entries
+            .iter()
+            .find(|e| e.path.canonicalize().unwrap_or_else(|_| e.path.clone()) == target);
+        if let Some(entry) = found {
+            return Ok(Some(entry.fs_hz));
+        }
+    }
+    Ok(None)
+}
+
+/// Load a recording, choosing the reader by extension.
+///
+/// - `.mat` (CWRU layout): `fs_hz` from the caller, else from a `MANIFEST.tsv` beside
+///   the file (or one directory up) that lists it; rpm from the file, else the caller.
+/// - `.csv`: `fs_hz` must come from the caller; rpm from the caller.
+pub fn load_recording(
+    path: &Path,
+    fs_hz: Option<f32>,
+    rpm: Option<f32>,
+) -> Result<Recording, DataError> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    match ext.as_deref() {
+        Some("mat") => {
+            let fs_hz = match fs_hz {
+                Some(fs) => fs,
+                None => manifest_fs_hz(path)?.ok_or_else(|| DataError::MissingSamplingRate {
+                    path: path.to_path_buf(),
+                    manifest_searched: true,
+                })?,
+            };
+            load_cwru_mat(path, None, fs_hz, rpm)
+        }
+        Some("csv") => {
+            let fs_hz = fs_hz.ok_or_else(|| DataError::MissingSamplingRate {
+                path: path.to_path_buf(),
+                manifest_searched: false,
+            })?;
+            load_csv(path, fs_hz, rpm)
+        }
+        _ => Err(DataError::UnsupportedFormat {
+            path: path.to_path_buf(),
+        }),
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+    use crate::data::mat::writer::double_vectors;
+
+    pub(crate) fn cwru_dir() -> Option<PathBuf> {
+        let dir = PathBuf::from(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../shared/data/cwru"
+        ));
+        if dir.join(MANIFEST_FILE).is_file() {
+            Some(dir)
+        } else {
+            eprintln!("skipping: CWRU data not found at {}", dir.display());
+            None
+        }
+    }
+
+    /// A fresh scratch directory under the system temp dir.
+    pub(crate) fn scratch_dir(tag: &str) -> PathBuf {
+        use std::sync::atomic::{AtomicUsize, Ordering};
+        static COUNTER: AtomicUsize = AtomicUsize::new(0);
+        let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+        let dir = std::env::temp_dir().join(format!("pumptwin-{tag}-{}-{n}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("create scratch dir");
+        dir
+    }
+
+    fn mat(vars: &[(&str, &[f64])]) -> MatFile {
+        read_mat(&double_vectors(vars)).expect("test file")
+    }
+
+    #[test]
+    fn picks_variables_by_file_number() {
+        // 99.mat carries 98's variables too; the file number must win.
+        let m = mat(&[
+            ("X098_DE_time", &[9.0, 9.0]),
+            ("X098_FE_time", &[9.0, 9.0]),
+            ("X099_DE_time", &[1.0, 2.0, 3.0]),
+            ("X099_FE_time", &[4.0, 5.0, 6.0]),
+            ("X098RPM", &[1772.0]),
+            ("X099RPM", &[1750.0]),
+            ("ans", &[0.0]),
+        ]);
+        let r = recording_from_cwru_mat(&m, "99", Some(99), 12_000.0, Some(1.0)).expect("valid");
+        assert_eq!(r.channels.len(), 2);
+        assert_eq!(r.channel("DE").expect("DE").samples, vec![1.0, 2.0, 3.0]);
+        assert_eq!(r.channel("FE").expect("FE").samples, vec![4.0, 5.0, 6.0]);
+        assert_eq!(r.rpm, Some(1750.0), "rpm comes from the file");
+        assert_eq!(r.len(), 3);
+    }
+
+    #[test]
+    fn falls_back_to_the_most_frequent_number() {
+        // Renamed file: no number; X210 has three variables, X209 one.
+        let m = mat(&[
+            ("X209_DE_time", &[7.0]),
+            ("X210_DE_time", &[1.0, 2.0]),
+            ("X210_FE_time", &[3.0, 4.0]),
+            ("X210_BA_time", &[5.0, 6.0]),
+        ]);
+        let r =
+            recording_from_cwru_mat(&m, "IR021_1", None, 12_000.0, Some(1774.0)).expect("valid");
+        let names: Vec<_> = r.channels.iter().map(|c| c.name.as_str()).collect();
+        assert_eq!(names, ["DE", "FE", "BA"]);
+        assert_eq!(r.channels[0].samples, vec![1.0, 2.0]);
+        assert_eq!(r.rpm, Some(1774.0), "no RPM variable: the caller's value");
+        // A file number that matches nothing also falls back.
+        let r = recording_from_cwru_mat(&m, "5", Some(5), 12_000.0, None).expect("valid");
+        assert_eq!(r.channels[0].samples, vec![1.0, 2.0]);
+    }
+
+    #[test]
+    fn rejects_bad_content() {
+        let m = mat(&[
+            ("X001_DE_time", &[1.0, f64::NAN]),
+            ("X001_FE_time", &[1.0, 2.0]),
+        ]);
+        let err = recording_from_cwru_mat(&m, "1", Some(1), 12_000.0, None).expect_err("NaN");
+        assert!(
+            matches!(&err, DataError::NonFiniteSample { channel, index: 1, .. } if channel == "DE"),
+            "{err}"
+        );
+        let m = mat(&[("X001_DE_time", &[1.0, 1e300])]);
+        assert!(matches!(
+            recording_from_cwru_mat(&m, "1", Some(1), 12_000.0, None),
+            Err(DataError::NonFiniteSample { index: 1, .. })
+        ));
+        let m = mat(&[("X001_DE_time", &[1.0, 2.0]), ("X001_FE_time", &[1.0])]);
+        assert!(matches!(
+            recording_from_cwru_mat(&m, "1", Some(1), 12_000.0, None),
+            Err(DataError::UnequalChannelLengths { .. })
+        ));
+        let m = mat(&[("signal", &[1.0])]);
+        let err =
+            recording_from_cwru_mat(&m, "1", Some(1), 12_000.0, None).expect_err("no channels");
+        assert!(err.to_string().contains("signal"), "{err}");
+        let m = mat(&[("X001_DE_time", &[1.0])]);
+        assert!(matches!(
+            recording_from_cwru_mat(&m, "1", Some(1), 0.0, None),
+            Err(DataError::InvalidParameter { what: "fs_hz", .. })
+        ));
+    }
+
+    #[test]
+    fn load_recording_dispatches_and_needs_a_rate() {
+        let dir = scratch_dir("record");
+        std::fs::write(
+            dir.join("7.mat"),
+            double_vectors(&[("X007_DE_time", &[0.5, 0.25])]),
+        )
+        .expect("write");
+        std::fs::write(dir.join("p.csv"), "DE\n1\n2\n").expect("write");
+        std::fs::write(dir.join("p.wav"), "RIFF").expect("write");
+        let err = load_recording(&dir.join("7.mat"), None, None).expect_err("no rate");
+        assert!(
+            matches!(err, DataError::MissingSamplingRate { .. }),
+            "{err}"
+        );
+        let r = load_recording(&dir.join("7.mat"), Some(12_000.0), Some(1797.0)).expect("mat");
+        assert_eq!(r.name, "7");
+        assert_eq!(r.channels[0].samples, vec![0.5, 0.25]);
+        assert!(matches!(
+            load_recording(&dir.join("p.csv"), None, None),
+            Err(DataError::MissingSamplingRate { .. })
+        ));
+        let r = load_recording(&dir.join("p.csv"), Some(1000.0), None).expect("csv");
+        assert_eq!(r.channels[0].samples, vec![1.0, 2.0]);
+        assert!(matches!(
+            load_recording(&dir.join("p.wav"), Some(1.0), None),
+            Err(DataError::UnsupportedFormat { .. })
+        ));
+        // A manifest beside the file supplies the rate.
+        std::fs::write(
+            dir.join(MANIFEST_FILE),
+            "file\tcwru_file_no\tcwru_label\tfault_type\tfault_size_in\tload_hp\trpm_recorded\tfs_hz\n\
+             7.mat\t7\tX\tnormal\t0\t0\t1797\t48000\n",
+        )
+        .expect("write");
+        let r = load_recording(&dir.join("7.mat"), None, None).expect("rate from manifest");
+        assert_eq!(r.fs_hz, 48_000.0);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn loads_every_cwru_record() {
+        let Some(dir) = cwru_dir() else { return };
+        let entries = crate::data::manifest::read_manifest(&dir).expect("manifest");
+        for e in &entries {
+            let r =
+                load_cwru_mat(&e.path, Some(e.file_number), e.fs_hz, None).expect("record loads");
+            let expected_channels = if e.fault_type == crate::data::manifest::FaultType::Normal {
+                2
+            } else {
+                3
+            };
+            assert_eq!(r.channels.len(), expected_channels, "{}", e.label);
+            if let Some(n) = e.samples_per_channel {
+                assert_eq!(r.len(), n, "{}", e.label);
+            }
+            let rpm = r.rpm.expect("CWRU files carry RPM");
+            let listed = e.rpm_recorded.expect("manifest lists rpm");
+            assert!(
+                (rpm - listed).abs() < 1.0,
+                "{}: rpm {rpm} vs {listed}",
+                e.label
+            );
+        }
+        // Loading through the extension dispatcher finds the rate in the manifest.
+        let r = load_recording(&dir.join("normal/97.mat"), None, None).expect("97.mat");
+        assert_eq!(r.fs_hz, 48_000.0);
+    }
+}
