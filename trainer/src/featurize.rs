@@ -130,18 +130,15 @@ pub fn fit_norm<const N: usize>(windows: &[WindowFeatures<N>]) -> FeatureNorm {
     FeatureNorm::new(mean, std).unwrap_or(FeatureNorm::IDENTITY)
 }
 
+/// Normalized node features of one window, `[T][N][F]`.
+pub type NodeSequence<const N: usize> = [[[f32; FEATURE_DIM]; N]; SEGMENTS];
+
 /// Normalized features and the dynamic graph sequence of one window.
 pub fn window_graphs<const N: usize>(
     w: &WindowFeatures<N>,
     norm: &FeatureNorm,
     graph: &GraphConfig<N>,
-) -> Result<
-    (
-        [[[f32; FEATURE_DIM]; N]; SEGMENTS],
-        [Adjacency<N>; SEGMENTS],
-    ),
-    pumptwin_core::Error,
-> {
+) -> Result<(NodeSequence<N>, [Adjacency<N>; SEGMENTS]), pumptwin_core::Error> {
     let mut x = w.features;
     for step in x.iter_mut() {
         for (i, row) in step.iter_mut().enumerate() {

@@ -85,7 +85,7 @@ pub fn line_plot(path: &Path, spec: &PlotSpec<'_>, series: &[Series]) -> Result<
             }
         }
     }
-    if !(x_range.0 < x_range.1) {
+    if x_range.0.partial_cmp(&x_range.1) != Some(std::cmp::Ordering::Less) {
         return Err(PlotError::Empty(shown));
     }
     if spec.y_db {

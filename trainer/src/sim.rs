@@ -90,7 +90,9 @@ pub enum SimError {
 }
 
 impl SimulationSpec {
-    /// A CWRU-like test rig: DE/FE/BA accelerometers, 12 kHz, 6205 drive-end bearing.
+    /// A CWRU-like test rig: DE/FE/BA accelerometers, 12 kHz, 6205 drive-end bearing;
+    /// force levels chosen so a drive-end defect gives peaks of a few g, as in CWRU's
+    /// 0.007" records.
     pub fn cwru_like(fault: Option<DefectLocation>, rpm: f32, duration_s: f64, seed: u64) -> Self {
         let s = |name: &str, gr: f32, gt: f32, d: u16| SensorSpec {
             name: name.to_string(),
@@ -109,14 +111,14 @@ impl SimulationSpec {
             bearing: BearingGeometry::CWRU_6205_DE,
             fault,
             params: BearingParams::default_housing(),
-            impact_amplitude_n: 400.0,
+            impact_amplitude_n: 40.0,
             impact_sigma_s: 2.0e-5,
             modulation_depth: 0.5,
             jitter: 0.005,
-            unbalance_n: 20.0,
-            background_n: 10.0,
+            unbalance_n: 2.0,
+            background_n: 1.0,
             pulse_rate_hz: 2.0,
-            pulse_amplitude_n: 100.0,
+            pulse_amplitude_n: 10.0,
             angular_share: 0.3,
             sensors: vec![
                 s("DE", 1.0, 0.3, 0),

@@ -1,1 +1,84 @@
-fn main() {}
+//! `pumptwin`: the host-side command line. A thin layer: each subcommand parses its
+//! flags and calls the library.
+use std::path::PathBuf;
+
+use anyhow::Context;
+use clap::{Args, Parser, Subcommand};
+use pumptwin_trainer::cli::{run_features, run_simulate, FeaturesArgs, SimulateArgs};
+use pumptwin_trainer::data::preprocess::{PreprocessConfig, MODEL_FS_HZ};
+use pumptwin_trainer::data::summary::summarize;
+use pumptwin_trainer::data::windows::{Protocol, WindowConfig, DEFAULT_HOP, DEFAULT_WINDOW_LEN};
+
+/// Physics-informed bearing fault diagnosis: data, training, evaluation, export.
+#[derive(Debug, Parser)]
+#[command(name = "pumptwin", version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+/// Top-level subcommands.
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Inspect data sets.
+    #[command(subcommand)]
+    Data(DataCmd),
+    /// Simulate a multi-node record with the 2-DOF bearing model (CSV + PNG plots).
+    Simulate(SimulateArgs),
+    /// Print (or write) the core's node features and dynamic graphs of a record.
+    Features(FeaturesArgs),
+}
+
+/// `pumptwin data …`
+#[derive(Debug, Subcommand)]
+enum DataCmd {
+    /// Records, windows and split sizes of a data directory with a MANIFEST.tsv.
+    Summary(SummaryArgs),
+}
+
+#[derive(Debug, Args)]
+struct SummaryArgs {
+    /// Data directory holding MANIFEST.tsv (e.g. the CWRU set).
+    #[arg(long)]
+    data: PathBuf,
+    /// Show only this protocol's split (default: all).
+    #[arg(long, value_enum)]
+    protocol: Option<Protocol>,
+    /// Model sampling rate in Hz.
+    #[arg(long, default_value_t = MODEL_FS_HZ)]
+    model_fs: f32,
+    /// Window length in samples at the model rate.
+    #[arg(long, default_value_t = DEFAULT_WINDOW_LEN)]
+    window: usize,
+    /// Hop between windows in samples.
+    #[arg(long, default_value_t = DEFAULT_HOP)]
+    hop: usize,
+}
+
+fn data_summary(args: &SummaryArgs) -> anyhow::Result<()> {
+    let protocols: Vec<Protocol> = match args.protocol {
+        Some(p) => vec![p],
+        None => Protocol::ALL.to_vec(),
+    };
+    let preprocess = PreprocessConfig {
+        target_fs_hz: args.model_fs,
+        ..PreprocessConfig::default()
+    };
+    let windows = WindowConfig {
+        len: args.window,
+        hop: args.hop,
+    };
+    let summary = summarize(&args.data, &protocols, &preprocess, &windows)
+        .with_context(|| format!("cannot summarize {}", args.data.display()))?;
+    print!("{summary}");
+    Ok(())
+}
+
+fn main() -> anyhow::Result<()> {
+    let cli = Cli::parse();
+    match &cli.command {
+        Command::Data(DataCmd::Summary(args)) => data_summary(args),
+        Command::Simulate(args) => run_simulate(args),
+        Command::Features(args) => run_features(args),
+    }
+}

@@ -114,7 +114,11 @@ pub enum Protocol {
 
 impl Protocol {
     /// Every protocol, in a fixed order.
-    pub const ALL: [Protocol; 3] = [Protocol::TimeBlock, Protocol::CrossLoad, Protocol::FaultSize];
+    pub const ALL: [Protocol; 3] = [
+        Protocol::TimeBlock,
+        Protocol::CrossLoad,
+        Protocol::FaultSize,
+    ];
 
     /// The protocol's name as used on the command line and in reports.
     pub fn name(self) -> &'static str {
@@ -132,7 +136,9 @@ impl Protocol {
                 "10 classes; per record, the last 30 % of windows test, earlier windows \
                  ending at least one window length before them train"
             }
-            Self::CrossLoad => "9 fault classes; train on 0-2 HP records, test on 3 HP; normal excluded",
+            Self::CrossLoad => {
+                "9 fault classes; train on 0-2 HP records, test on 3 HP; normal excluded"
+            }
             Self::FaultSize => {
                 "fault types IR/B/OR; train on 0.007\" and 0.021\" records, test on 0.014\"; \
                  all loads; normal excluded"
@@ -229,7 +235,9 @@ impl Split {
             *intervals = merged;
         }
         for (w, _) in &self.test {
-            let Some(intervals) = train.get(&w.record) else { continue };
+            let Some(intervals) = train.get(&w.record) else {
+                continue;
+            };
             // The first merged interval ending after the test window starts.
             let i = intervals.partition_point(|&(_, e)| e <= w.start);
             if let Some(&(s, e)) = intervals.get(i) {
@@ -358,7 +366,9 @@ pub fn time_block(records: &[RecordMeta], cfg: &WindowConfig) -> Result<Split, S
                 .filter(|w| n_test == 0 || w.end() + gap <= test_start)
                 .map(|&w| (w, label)),
         );
-        split.test.extend(windows[first_test..].iter().map(|&w| (w, label)));
+        split
+            .test
+            .extend(windows[first_test..].iter().map(|&w| (w, label)));
     }
     Ok(split)
 }
@@ -392,7 +402,11 @@ pub fn fault_size(records: &[RecordMeta], cfg: &WindowConfig) -> Result<Split, S
 }
 
 /// Build the split of `protocol`.
-pub fn build_split(protocol: Protocol, records: &[RecordMeta], cfg: &WindowConfig) -> Result<Split, SplitError> {
+pub fn build_split(
+    protocol: Protocol,
+    records: &[RecordMeta],
+    cfg: &WindowConfig,
+) -> Result<Split, SplitError> {
     match protocol {
         Protocol::TimeBlock => time_block(records, cfg),
         Protocol::CrossLoad => cross_load(records, cfg),
@@ -419,7 +433,9 @@ fn by_record(
 ) -> Result<Split, SplitError> {
     let mut split = empty_split(protocol, classes);
     for (index, record) in records.iter().enumerate() {
-        let Some((side, label)) = assign(record) else { continue };
+        let Some((side, label)) = assign(record) else {
+            continue;
+        };
         let windows = cfg.windows(index, record.n_samples).map(|w| (w, label));
         match side {
             Side::Train => split.train.extend(windows),
@@ -455,9 +471,19 @@ mod tests {
         assert_eq!(cfg.count(3072), 2);
         let w: Vec<_> = cfg.windows(3, 5000).collect();
         assert_eq!(w.len(), 3);
-        assert_eq!(w[2], WindowRef { record: 3, start: 2048, len: 2048 });
+        assert_eq!(
+            w[2],
+            WindowRef {
+                record: 3,
+                start: 2048,
+                len: 2048
+            }
+        );
         assert!(w[0].overlaps(&w[1]) && !w[0].overlaps(&w[2]));
-        assert!(matches!(WindowConfig { len: 0, hop: 1 }.validate(), Err(SplitError::BadWindow { .. })));
+        assert!(matches!(
+            WindowConfig { len: 0, hop: 1 }.validate(),
+            Err(SplitError::BadWindow { .. })
+        ));
     }
 
     #[test]
@@ -466,7 +492,10 @@ mod tests {
             assert_eq!(p.name().parse::<Protocol>().expect("known"), p);
             assert_eq!(p.to_string(), p.name());
         }
-        assert_eq!(Protocol::ALL.map(Protocol::name), ["time-block", "cross-load", "fault-size"]);
+        assert_eq!(
+            Protocol::ALL.map(Protocol::name),
+            ["time-block", "cross-load", "fault-size"]
+        );
         assert!("random".parse::<Protocol>().is_err());
         use clap::ValueEnum;
         for p in Protocol::ALL {
@@ -484,10 +513,23 @@ mod tests {
         assert_eq!(n, 117);
         assert_eq!(split.test.len(), 35);
         let first_test = split.test.iter().map(|(w, _)| w.start).min().expect("test");
-        let last_train_end = split.train.iter().map(|(w, _)| w.end()).max().expect("train");
-        assert!(first_test >= last_train_end + cfg.len, "gap {first_test} - {last_train_end}");
+        let last_train_end = split
+            .train
+            .iter()
+            .map(|(w, _)| w.end())
+            .max()
+            .expect("train");
+        assert!(
+            first_test >= last_train_end + cfg.len,
+            "gap {first_test} - {last_train_end}"
+        );
         // No more windows are dropped than the gap needs.
-        assert!(split.train.len() + split.test.len() >= n - 3, "{} + {}", split.train.len(), split.test.len());
+        assert!(
+            split.train.len() + split.test.len() >= n - 3,
+            "{} + {}",
+            split.train.len(),
+            split.test.len()
+        );
         assert!(split.train.iter().chain(&split.test).all(|&(_, l)| l == 1));
         split.verify_disjoint().expect("disjoint");
     }
@@ -515,16 +557,27 @@ mod tests {
         assert_eq!(fs.classes, ["IR", "B", "OR"]);
         assert_eq!(fs.train.len(), 3 * 2 * 4 * per_record);
         assert_eq!(fs.test.len(), 3 * 4 * per_record);
-        assert!(fs.test.iter().all(|(w, _)| records[w.record].fault_size_mils == 14));
+        assert!(fs
+            .test
+            .iter()
+            .all(|(w, _)| records[w.record].fault_size_mils == 14));
         for split in [&cl, &fs] {
             split.verify_disjoint().expect("disjoint");
-            assert!(split.train.iter().chain(&split.test).all(|(w, _)| records[w.record].fault_type != FaultType::Normal));
+            assert!(split
+                .train
+                .iter()
+                .chain(&split.test)
+                .all(|(w, _)| records[w.record].fault_type != FaultType::Normal));
         }
     }
 
     #[test]
     fn verify_catches_leaks_and_bad_bounds() {
-        let w = |record, start| WindowRef { record, start, len: 100 };
+        let w = |record, start| WindowRef {
+            record,
+            start,
+            len: 100,
+        };
         let leaky = Split {
             protocol: Protocol::TimeBlock,
             classes: vec!["a".into()],
@@ -532,25 +585,46 @@ mod tests {
             test: vec![(w(0, 300), 0), (w(1, 150), 0), (w(0, 199), 0)],
         };
         let err = leaky.verify_disjoint().expect_err("leak");
-        assert!(matches!(err, SplitError::Leak { record: 0, test: (199, 299), .. }), "{err}");
+        assert!(
+            matches!(
+                err,
+                SplitError::Leak {
+                    record: 0,
+                    test: (199, 299),
+                    ..
+                }
+            ),
+            "{err}"
+        );
         let ok = Split {
             test: vec![(w(0, 200), 0), (w(1, 100), 0), (w(2, 0), 0)],
             ..leaky.clone()
         };
         ok.verify_disjoint().expect("touching is not overlapping");
-        assert!(matches!(ok.verify_bounds(&[300, 200, 99]), Err(SplitError::OutOfBounds { record: 2, .. })));
+        assert!(matches!(
+            ok.verify_bounds(&[300, 200, 99]),
+            Err(SplitError::OutOfBounds { record: 2, .. })
+        ));
         ok.verify_bounds(&[300, 200, 100]).expect("in bounds");
         let bad_label = Split {
             train: vec![(w(0, 0), 1)],
             ..ok
         };
-        assert!(matches!(bad_label.verify_bounds(&[300, 200, 100]), Err(SplitError::BadLabel { .. })));
+        assert!(matches!(
+            bad_label.verify_bounds(&[300, 200, 100]),
+            Err(SplitError::BadLabel { .. })
+        ));
     }
 
     #[test]
     fn random_records_never_leak() {
         let mut rng = Xoshiro128pp::seed_from_u64(0x5350_4c49);
-        let types = [FaultType::Normal, FaultType::InnerRace, FaultType::Ball, FaultType::OuterRace];
+        let types = [
+            FaultType::Normal,
+            FaultType::InnerRace,
+            FaultType::Ball,
+            FaultType::OuterRace,
+        ];
         for _ in 0..300 {
             let len = 1 + (rng.next_u32() % 3000) as usize;
             let hop = 1 + (rng.next_u32() as usize) % (2 * len);
@@ -570,7 +644,12 @@ mod tests {
                 let split = build_split(p, &records, &cfg).expect("valid config");
                 split.verify_disjoint().expect("no leak");
                 split.verify_bounds(&lens).expect("in bounds");
-                let mut all: Vec<WindowRef> = split.train.iter().chain(&split.test).map(|(w, _)| *w).collect();
+                let mut all: Vec<WindowRef> = split
+                    .train
+                    .iter()
+                    .chain(&split.test)
+                    .map(|(w, _)| *w)
+                    .collect();
                 let total = all.len();
                 all.sort_unstable();
                 all.dedup();
@@ -617,8 +696,14 @@ mod tests {
                 Protocol::FaultSize => assert_eq!((train_records, test_records), (24, 12)),
             }
             for label in 0..split.classes.len() {
-                assert!(split.train.iter().any(|&(_, l)| l == label), "{p}: class {label} has no train windows");
-                assert!(split.test.iter().any(|&(_, l)| l == label), "{p}: class {label} has no test windows");
+                assert!(
+                    split.train.iter().any(|&(_, l)| l == label),
+                    "{p}: class {label} has no train windows"
+                );
+                assert!(
+                    split.test.iter().any(|&(_, l)| l == label),
+                    "{p}: class {label} has no test windows"
+                );
             }
         }
     }

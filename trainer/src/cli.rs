@@ -1,0 +1,460 @@
+//! Subcommands beyond `data`: `simulate` and `features`. The binary stays thin; each
+//! command is a function over a clap `Args` struct so tests can call it directly.
+
+use crate::data::preprocess::{preprocess, PreprocessConfig};
+use crate::data::record::{load_recording, Recording};
+use crate::featurize::{
+    feature_config, fit_norm, window_features, window_graphs, MaskCounts, WINDOW,
+};
+use crate::plot::{line_plot, PlotSpec, Series};
+use crate::sim::{location_name, simulate, SimulationSpec};
+use anyhow::{bail, Context, Result};
+use pumptwin_core::bearing::{BearingGeometry, DefectLocation};
+use pumptwin_core::features::{envelope_spectrum, EnvelopeBand, FEATURE_DIM, FEATURE_NAMES};
+use pumptwin_core::fft::{power_spectrum, Complex32, Window};
+use pumptwin_core::graph::GraphConfig;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// Parse a bearing: `cwru-6205-de`, `cwru-6203-fe`, or `n,d,D,angle_deg`.
+pub fn parse_bearing(s: &str) -> Result<BearingGeometry> {
+    match s {
+        "cwru-6205-de" => Ok(BearingGeometry::CWRU_6205_DE),
+        "cwru-6203-fe" => Ok(BearingGeometry::CWRU_6203_FE),
+        custom => {
+            let parts: Vec<&str> = custom.split(',').map(str::trim).collect();
+            let [n, d, pitch, angle] = parts[..] else {
+                bail!("bearing must be cwru-6205-de, cwru-6203-fe or n,d,D,angle_deg (got {custom:?})");
+            };
+            let n: u8 = n
+                .parse()
+                .with_context(|| format!("rolling elements {n:?}"))?;
+            let f = |v: &str, what: &str| v.parse::<f32>().with_context(|| format!("{what} {v:?}"));
+            BearingGeometry::new(
+                n,
+                f(d, "element diameter")?,
+                f(pitch, "pitch diameter")?,
+                f(angle, "contact angle")?,
+            )
+            .map_err(|e| anyhow::anyhow!("bearing {custom:?}: {e}"))
+        }
+    }
+}
+
+/// Fault hypothesis on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum FaultArg {
+    /// Healthy bearing.
+    None,
+    /// Outer race.
+    Or,
+    /// Inner race.
+    Ir,
+    /// Rolling element.
+    Ball,
+}
+
+impl FaultArg {
+    fn location(self) -> Option<DefectLocation> {
+        match self {
+            FaultArg::None => None,
+            FaultArg::Or => Some(DefectLocation::OuterRace),
+            FaultArg::Ir => Some(DefectLocation::InnerRace),
+            FaultArg::Ball => Some(DefectLocation::Ball),
+        }
+    }
+}
+
+/// `pumptwin simulate`: a multi-node record from the 2-DOF model, as CSV and plots.
+#[derive(Debug, Clone, clap::Args)]
+pub struct SimulateArgs {
+    /// Defect to simulate.
+    #[arg(long, value_enum, default_value = "ir")]
+    pub fault: FaultArg,
+    /// Shaft speed, rpm.
+    #[arg(long, default_value_t = 1797.0)]
+    pub rpm: f32,
+    /// Duration, s.
+    #[arg(long, default_value_t = 2.0)]
+    pub duration: f64,
+    /// Bearing: cwru-6205-de, cwru-6203-fe, or n,d,D,angle_deg.
+    #[arg(long, default_value = "cwru-6205-de")]
+    pub bearing: String,
+    /// Radial natural frequency, Hz (sets k_r = m·ω²).
+    #[arg(long, default_value_t = 3000.0)]
+    pub fn_radial: f64,
+    /// Radial damping ratio ζ (sets c_r = 2ζ√(k_r m)).
+    #[arg(long, default_value_t = 0.05)]
+    pub zeta: f64,
+    /// PRNG seed.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Output directory (sim.csv, time.png, spectrum.png, envelope.png, spec.json).
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// Run `simulate`.
+pub fn run_simulate(args: &SimulateArgs) -> Result<()> {
+    let mut spec =
+        SimulationSpec::cwru_like(args.fault.location(), args.rpm, args.duration, args.seed);
+    spec.bearing = parse_bearing(&args.bearing)?;
+    let w = 2.0 * std::f64::consts::PI * args.fn_radial;
+    spec.params.stiffness_radial = spec.params.mass * w * w;
+    spec.params.damping_radial = 2.0 * args.zeta * spec.params.mass * w;
+    let rec = simulate(&spec).context("simulation")?;
+    std::fs::create_dir_all(&args.out).with_context(|| format!("create {}", args.out.display()))?;
+    write_csv(&rec, &args.out.join("sim.csv"))?;
+    let f = spec.bearing.frequencies(args.rpm / 60.0);
+    let markers = kinematic_markers(&f);
+    plot_record(&rec, &args.out, &markers)?;
+    let json = serde_json::json!({
+        "fault": args.fault.location().map_or("none", location_name),
+        "rpm": args.rpm,
+        "fs_hz": rec.fs_hz,
+        "duration_s": args.duration,
+        "oversample": spec.oversample,
+        "seed": args.seed,
+        "params": {
+            "mass": spec.params.mass,
+            "stiffness_radial": spec.params.stiffness_radial,
+            "damping_radial": spec.params.damping_radial,
+            "stiffness_angular": spec.params.stiffness_angular,
+            "damping_angular": spec.params.damping_angular,
+            "stiffness_nl_radial": spec.params.stiffness_nl_radial,
+            "stiffness_nl_angular": spec.params.stiffness_nl_angular,
+        },
+        "defect_frequencies_hz": {"shaft": f.shaft, "ftf": f.ftf, "bpfo": f.bpfo, "bpfi": f.bpfi, "bsf": f.bsf},
+        "channels": rec.channels.iter().map(|c| c.name.clone()).collect::<Vec<_>>(),
+    });
+    std::fs::write(
+        args.out.join("spec.json"),
+        serde_json::to_string_pretty(&json)? + "\n",
+    )?;
+    println!(
+        "simulated {} s of {} at {} rpm: {} nodes x {} samples -> {}",
+        args.duration,
+        args.fault
+            .location()
+            .map_or("a healthy bearing", location_name),
+        args.rpm,
+        rec.channels.len(),
+        rec.len(),
+        args.out.display()
+    );
+    Ok(())
+}
+
+fn kinematic_markers(f: &pumptwin_core::bearing::DefectFrequencies) -> Vec<(f32, String)> {
+    vec![
+        (f.shaft, "fr".into()),
+        (f.bpfo, "BPFO".into()),
+        (f.bpfi, "BPFI".into()),
+        (2.0 * f.bsf, "2BSF".into()),
+    ]
+}
+
+/// Write a recording as CSV with a header row of channel names.
+pub fn write_csv(rec: &Recording, path: &Path) -> Result<()> {
+    let file = std::fs::File::create(path).with_context(|| format!("create {}", path.display()))?;
+    let mut w = std::io::BufWriter::new(file);
+    writeln!(
+        w,
+        "# fs_hz={} rpm={}",
+        rec.fs_hz,
+        rec.rpm.unwrap_or(f32::NAN)
+    )?;
+    let names: Vec<&str> = rec.channels.iter().map(|c| c.name.as_str()).collect();
+    writeln!(w, "{}", names.join(","))?;
+    for i in 0..rec.len() {
+        let row: Vec<String> = rec
+            .channels
+            .iter()
+            .map(|c| format!("{:.6}", c.samples[i]))
+            .collect();
+        writeln!(w, "{}", row.join(","))?;
+    }
+    w.flush()?;
+    Ok(())
+}
+
+/// Averaged (Welch, 50 % overlap) power spectrum and envelope spectrum of a channel
+/// over blocks of `n` samples: `(frequencies, psd, envelope spectrum)`.
+pub fn averaged_spectra(
+    x: &[f32],
+    fs: f32,
+    n: usize,
+    band: EnvelopeBand,
+) -> Result<(Vec<f32>, Vec<f32>, Vec<f32>)> {
+    if x.len() < n {
+        bail!("need at least {n} samples, have {}", x.len());
+    }
+    let mut scratch = vec![Complex32::ZERO; n];
+    let mut env = vec![0.0f32; n];
+    let mut block = vec![0.0f32; n / 2 + 1];
+    let mut psd = vec![0.0f32; n / 2 + 1];
+    let mut envs = vec![0.0f32; n / 2 + 1];
+    let mut count = 0usize;
+    for start in (0..=x.len() - n).step_by(n / 2) {
+        let seg = &x[start..start + n];
+        power_spectrum(seg, Window::Hann, &mut scratch, &mut block)?;
+        psd.iter_mut().zip(&block).for_each(|(a, b)| *a += b);
+        envelope_spectrum(seg, fs, band, &mut scratch, &mut env, &mut block)?;
+        envs.iter_mut().zip(&block).for_each(|(a, b)| *a += b);
+        count += 1;
+    }
+    let inv = 1.0 / count as f32;
+    psd.iter_mut().for_each(|v| *v *= inv);
+    envs.iter_mut().for_each(|v| *v *= inv);
+    let freqs = (0..=n / 2).map(|k| k as f32 * fs / n as f32).collect();
+    Ok((freqs, psd, envs))
+}
+
+/// time.png (first 0.1 s), spectrum.png (PSD, dB), envelope.png (0–600 Hz) of a record.
+pub fn plot_record(rec: &Recording, dir: &Path, markers: &[(f32, String)]) -> Result<()> {
+    let n_time = ((0.1 * rec.fs_hz) as usize).min(rec.len());
+    let time: Vec<Series> = rec
+        .channels
+        .iter()
+        .map(|c| Series {
+            label: c.name.clone(),
+            points: c.samples[..n_time]
+                .iter()
+                .enumerate()
+                .map(|(i, &v)| (i as f32 / rec.fs_hz, v))
+                .collect(),
+        })
+        .collect();
+    let spec = PlotSpec {
+        title: &format!("{}: time signal", rec.name),
+        x_label: "time [s]",
+        y_label: "acceleration [g]",
+        y_db: false,
+        markers: &[],
+    };
+    line_plot(&dir.join("time.png"), &spec, &time)?;
+    let n = 4096.min(rec.len().next_power_of_two() / 2).max(256);
+    let band =
+        feature_config(rec.fs_hz, 30.0, BearingGeometry::CWRU_6205_DE.orders()).envelope_band;
+    let mut psd = Vec::new();
+    let mut env = Vec::new();
+    for c in &rec.channels {
+        let (f, p, e) = averaged_spectra(&c.samples, rec.fs_hz, n, band)?;
+        psd.push(Series {
+            label: c.name.clone(),
+            points: f.iter().copied().zip(p).collect(),
+        });
+        env.push(Series {
+            label: c.name.clone(),
+            points: f
+                .iter()
+                .copied()
+                .zip(e)
+                .filter(|(f, _)| *f <= 600.0)
+                .collect(),
+        });
+    }
+    let spec = PlotSpec {
+        title: &format!("{}: power spectrum", rec.name),
+        x_label: "frequency [Hz]",
+        y_label: "PSD",
+        y_db: true,
+        markers: &[],
+    };
+    line_plot(&dir.join("spectrum.png"), &spec, &psd)?;
+    let spec = PlotSpec {
+        title: &format!("{}: envelope spectrum", rec.name),
+        x_label: "frequency [Hz]",
+        y_label: "envelope power",
+        y_db: false,
+        markers,
+    };
+    line_plot(&dir.join("envelope.png"), &spec, &env)?;
+    Ok(())
+}
+
+/// `pumptwin features`: the core's node features and dynamic graphs for a record.
+#[derive(Debug, Clone, clap::Args)]
+pub struct FeaturesArgs {
+    /// Recording (.mat in CWRU layout, or .csv with a header row).
+    #[arg(long)]
+    pub input: PathBuf,
+    /// Sampling rate, Hz (required for CSV; .mat takes it from MANIFEST.tsv if absent).
+    #[arg(long)]
+    pub fs: Option<f32>,
+    /// Shaft speed, rpm (required when the file does not carry it).
+    #[arg(long)]
+    pub rpm: Option<f32>,
+    /// Bearing: cwru-6205-de, cwru-6203-fe, or n,d,D,angle_deg.
+    #[arg(long, default_value = "cwru-6205-de")]
+    pub bearing: String,
+    /// Node channels, in order (missing ones are masked and reported).
+    #[arg(long, value_delimiter = ',', default_value = "DE,FE,BA")]
+    pub channels: Vec<String>,
+    /// Write every window's features and graphs as JSON here.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// Run `features`.
+pub fn run_features(args: &FeaturesArgs) -> Result<()> {
+    let raw = load_recording(&args.input, args.fs, args.rpm)
+        .with_context(|| format!("load {}", args.input.display()))?;
+    let rpm = args
+        .rpm
+        .or(raw.rpm)
+        .context("shaft speed unknown: pass --rpm")?;
+    let bearing = parse_bearing(&args.bearing)?;
+    let rec = preprocess(&raw, &PreprocessConfig::default()).context("preprocess")?;
+    let names: Vec<&str> = args.channels.iter().map(String::as_str).collect();
+    let nodes: [&str; 3] = names[..].try_into().map_err(|_| {
+        anyhow::anyhow!(
+            "exactly 3 node channels are supported (got {})",
+            names.len()
+        )
+    })?;
+    let shaft = rpm / 60.0;
+    let cfg = feature_config(rec.fs_hz, shaft, bearing.orders());
+    if rec.len() < WINDOW {
+        bail!(
+            "record has {} samples at {} Hz, a window needs {WINDOW}",
+            rec.len(),
+            rec.fs_hz
+        );
+    }
+    let starts: Vec<usize> = (0..=rec.len() - WINDOW).step_by(WINDOW / 2).collect();
+    let mut counts = MaskCounts::default();
+    let windows = window_features(&rec, &nodes, &cfg, &starts, &mut counts);
+    let norm = fit_norm(&windows);
+    let graph = GraphConfig::<3>::uniform();
+    let f = bearing.frequencies(shaft);
+    println!(
+        "{}: {} Hz -> {} Hz (band limit {} Hz), {:.2} s, {} rpm; shaft {:.2} Hz, BPFO {:.1}, BPFI {:.1}, BSF {:.1}, FTF {:.2} Hz",
+        raw.name, raw.fs_hz, rec.fs_hz, cfg.band_limit_hz, rec.duration_s(), rpm, f.shaft, f.bpfo, f.bpfi, f.bsf, f.ftf
+    );
+    println!(
+        "{} windows of {WINDOW} samples (hop {}), T = {} segments; masked node-windows: {} missing channel, {} rejected signal",
+        windows.len(), WINDOW / 2, cfg.segments, counts.missing_channel, counts.rejected_signal
+    );
+    // Mean of each feature per node over windows and segments.
+    println!(
+        "\n{:<16} {}",
+        "feature",
+        nodes.iter().map(|n| format!("{n:>12}")).collect::<String>()
+    );
+    for k in 0..FEATURE_DIM {
+        let mut line = format!("{:<16}", FEATURE_NAMES[k]);
+        for i in 0..3 {
+            let vals: Vec<f32> = windows
+                .iter()
+                .filter(|w| w.mask.0[i])
+                .flat_map(|w| w.features.iter().map(move |s| s[i][k]))
+                .collect();
+            if vals.is_empty() {
+                line.push_str(&format!("{:>12}", "masked"));
+            } else {
+                line.push_str(&format!(
+                    "{:>12.4}",
+                    vals.iter().sum::<f32>() / vals.len() as f32
+                ));
+            }
+        }
+        println!("{line}");
+    }
+    let mut mean_adj = [[0.0f32; 3]; 3];
+    let mut graphs_json = Vec::new();
+    for w in &windows {
+        let (x, a) = window_graphs(w, &norm, &graph)?;
+        for step in &a {
+            for i in 0..3 {
+                for j in 0..3 {
+                    mean_adj[i][j] += step.0[i][j] / (a.len() * windows.len()) as f32;
+                }
+            }
+        }
+        if args.out.is_some() {
+            graphs_json.push(serde_json::json!({
+                "start": w.start,
+                "mask": w.mask.0,
+                "features_raw": w.features.iter().map(|s| s.iter().map(|r| r.to_vec()).collect::<Vec<_>>()).collect::<Vec<_>>(),
+                "features_normalized": x.iter().map(|s| s.iter().map(|r| r.to_vec()).collect::<Vec<_>>()).collect::<Vec<_>>(),
+                "adjacency": a.iter().map(|m| m.0.iter().map(|r| r.to_vec()).collect::<Vec<_>>()).collect::<Vec<_>>(),
+            }));
+        }
+    }
+    println!("\nmean normalized adjacency (eqs. 1-3, features z-scored over this record):");
+    for (i, row) in mean_adj.iter().enumerate() {
+        println!(
+            "  {:<4} {:>8.4} {:>8.4} {:>8.4}",
+            nodes[i], row[0], row[1], row[2]
+        );
+    }
+    // Envelope-spectrum explanation on the first present node.
+    if let Some(ch) = nodes.iter().find_map(|n| rec.channel(n)) {
+        let n = 16384.min(rec.len().next_power_of_two() / 2).max(WINDOW);
+        let (freqs, _, env) = averaged_spectra(&ch.samples, rec.fs_hz, n, cfg.envelope_band)?;
+        let lo = 40.0f32.max(1.3 * shaft);
+        let (k, _) = freqs
+            .iter()
+            .zip(&env)
+            .enumerate()
+            .filter(|(_, (f, _))| **f >= lo && **f <= 400.0)
+            .fold(
+                (0usize, 0.0f32),
+                |best, (k, (_, &e))| if e > best.1 { (k, e) } else { best },
+            );
+        let peak = freqs[k];
+        let candidates = [
+            ("shaft", f.shaft),
+            ("BPFO", f.bpfo),
+            ("BPFI", f.bpfi),
+            ("2xBSF", 2.0 * f.bsf),
+            ("FTF", f.ftf),
+        ];
+        let (name, fk, order) = candidates
+            .iter()
+            .flat_map(|(name, fk)| (1..=3).map(move |h| (*name, *fk * h as f32, h)))
+            .min_by(|a, b| (a.1 - peak).abs().total_cmp(&(b.1 - peak).abs()))
+            .unwrap_or(("none", 0.0, 0));
+        println!(
+            "\nenvelope spectrum of {} ({}–{} Hz band): strongest line in {lo:.0}–400 Hz at {peak:.1} Hz = {:.2} x shaft; nearest kinematic line {order}x{name} = {fk:.1} Hz ({:+.2} %)",
+            ch.name, cfg.envelope_band.lo_hz, cfg.envelope_band.hi_hz, peak / shaft, 100.0 * (peak / fk - 1.0)
+        );
+    }
+    if let Some(out) = &args.out {
+        let json = serde_json::json!({
+            "input": args.input.display().to_string(),
+            "fs_hz": rec.fs_hz,
+            "rpm": rpm,
+            "nodes": nodes,
+            "feature_names": FEATURE_NAMES,
+            "norm_mean": norm.mean.to_vec(),
+            "norm_std": norm.std.to_vec(),
+            "masked_missing_channel": counts.missing_channel,
+            "masked_rejected_signal": counts.rejected_signal,
+            "windows": graphs_json,
+        });
+        std::fs::write(out, serde_json::to_string(&json)? + "\n")
+            .with_context(|| format!("write {}", out.display()))?;
+        println!("wrote {}", out.display());
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bearing_argument() {
+        assert_eq!(
+            parse_bearing("cwru-6205-de").unwrap(),
+            BearingGeometry::CWRU_6205_DE
+        );
+        let g = parse_bearing("9, 7.94, 39.04, 0").unwrap();
+        assert_eq!(g.n_elements, 9);
+        assert!(parse_bearing("9,7.9,39").is_err());
+        assert!(parse_bearing("9,40,39,0").is_err());
+        assert!(parse_bearing("x,1,2,0").is_err());
+    }
+}
