@@ -13,6 +13,7 @@ cargo bench -q -p pumptwin-core --bench core_bench -- \
     --json "$PWD/out/core_bench.json" --dump "$PWD/out/rk4_rust_xr.csv" | tee out/core_bench.md
 python3 benches/rk4_reference.py --json out/rk4_reference.json --dump out/rk4_python_xr.csv --convergence \
     | tee out/rk4_reference.md
+gcc -O1 benches/fp_peak.c -o out/fp_peak && out/fp_peak > out/fp_peak.json
 python3 - <<'PY' | tee out/rk4_compare.md
 import csv, json, math
 rust = json.load(open("out/core_bench.json"))
@@ -37,5 +38,10 @@ print(f"Rust vs Python RK4 trajectory: relative RMS difference of x_r = {diff/rm
 conv = py.get("convergence") or {}
 for name, err in (conv.get("rel_rms_err_vs_dop853") or {}).items():
     print(f"accuracy vs DOP853 (rtol 1e-12): {name}: {err:.2e}")
+fp = json.load(open("out/fp_peak.json"))
+flops = 116  # per RK4 step of the 2-DOF model: 4 x 16 (rhs) + 24 (stage states) + 28 (update)
+bound = fp["scalar_f64_gflops"] * 1e9 / flops
+print(f"arithmetic limit: {flops} flops/step at the measured scalar f64 rate {fp['scalar_f64_gflops']:.2f} Gflop/s "
+      f"= {bound/1e6:.1f} M steps/s; Rust f64 reaches {rust['rk4_f64_steps_per_s']/bound:.0%} of it")
 print(f"features + dynamic graph: {rust['features_graph_s_per_window']*1e6:.0f} us per window (3 nodes x 2048 samples, T = 8)")
 PY

@@ -724,6 +724,86 @@ mod tests {
         assert!((out[3][8] - 3000.0).abs() < 100.0, "dominant {}", out[3][8]);
     }
 
+    /// Spectral features and the envelope against an f64 reference built on rustfft.
+    #[test]
+    fn spectral_and_envelope_match_rustfft_reference() {
+        use rustfft::{num_complex::Complex, FftPlanner};
+        let (fs, n) = (12_000.0f64, 2048usize);
+        let mut r = Xoshiro128pp::seed_from_u64(21);
+        let x: Vec<f32> = (0..n)
+            .map(|i| {
+                let t = i as f64 / fs;
+                let am = 1.0 + 0.6 * (2.0 * math::PI * 97.0 * t).cos();
+                (am * (2.0 * math::PI * 2500.0 * t).sin() + 0.3 * r.normal()) as f32
+            })
+            .collect();
+        let mut planner = FftPlanner::<f64>::new();
+        // Reference power spectrum (Hann, same scaling).
+        let w: Vec<f64> = (0..n)
+            .map(|i| 0.5 - 0.5 * (2.0 * math::PI * i as f64 / n as f64).cos())
+            .collect();
+        let wsum: f64 = w.iter().map(|v| v * v).sum();
+        let mut buf: Vec<Complex<f64>> = x
+            .iter()
+            .zip(&w)
+            .map(|(&v, &wi)| Complex::new(f64::from(v) * wi, 0.0))
+            .collect();
+        planner.plan_fft_forward(n).process(&mut buf);
+        let p_ref: Vec<f32> = (0..=n / 2)
+            .map(|k| {
+                let p = buf[k].norm_sqr() / (n as f64 * wsum);
+                (if k == 0 || k == n / 2 { p } else { 2.0 * p }) as f32
+            })
+            .collect();
+        let mut scratch = std::vec![Complex32::ZERO; n];
+        let mut p = std::vec![0.0f32; n / 2 + 1];
+        power_spectrum(&x, Window::Hann, &mut scratch, &mut p).unwrap();
+        let total: f32 = p_ref.iter().sum();
+        let max_err = p
+            .iter()
+            .zip(&p_ref)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f32::max);
+        assert!(
+            max_err / total < 1e-5,
+            "power spectrum rel err {}",
+            max_err / total
+        );
+        let a = SpectralStats::compute(&p, fs as f32, 5000.0).unwrap();
+        let b = SpectralStats::compute(&p_ref, fs as f32, 5000.0).unwrap();
+        assert!(
+            (a.centroid_hz - b.centroid_hz).abs() < 0.05
+                && (a.bandwidth_hz - b.bandwidth_hz).abs() < 0.05
+        );
+        assert!((a.dominant_hz - b.dominant_hz).abs() < 0.05);
+        // Reference envelope: band-limited analytic signal with rustfft, f64.
+        let mean = x.iter().map(|&v| f64::from(v)).sum::<f64>() / n as f64;
+        let mut z: Vec<Complex<f64>> = x
+            .iter()
+            .map(|&v| Complex::new(f64::from(v) - mean, 0.0))
+            .collect();
+        planner.plan_fft_forward(n).process(&mut z);
+        for (k, c) in z.iter_mut().enumerate() {
+            let f = k as f64 * fs / n as f64;
+            *c = if k > 0 && k < n / 2 && (500.0..=5000.0).contains(&f) {
+                *c * 2.0
+            } else {
+                Complex::new(0.0, 0.0)
+            };
+        }
+        planner.plan_fft_inverse(n).process(&mut z);
+        let env_ref: Vec<f64> = z.iter().map(|c| c.norm() / n as f64).collect();
+        let mut env = std::vec![0.0f32; n];
+        envelope(&x, fs as f32, EnvelopeBand::DEFAULT, &mut scratch, &mut env).unwrap();
+        let rms = (env_ref.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt();
+        let max_err = env
+            .iter()
+            .zip(&env_ref)
+            .map(|(a, b)| (f64::from(*a) - b).abs())
+            .fold(0.0, f64::max);
+        assert!(max_err / rms < 1e-5, "envelope rel err {}", max_err / rms);
+    }
+
     #[test]
     fn feature_norm_standardizes_and_checks() {
         let mut mean = [0.0; FEATURE_DIM];
