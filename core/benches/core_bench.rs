@@ -36,6 +36,7 @@ fn excitation() -> CompositeExcitation {
             amplitude: 20.0,
             shaft_hz: 29.93,
             phase_rad: 0.0,
+            drift_per_s: 0.0,
         },
         random: RandomExcitation {
             noise_std: 0.0,

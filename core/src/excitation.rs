@@ -82,6 +82,9 @@ pub struct ImpactTrain {
     pub modulation_hz: f64,
     /// Timing jitter as a fraction of the period (0: strictly periodic).
     pub jitter: f64,
+    /// Linear speed drift: the rate (and the modulation rate) scale by
+    /// `1 + rate_drift_per_s · t` (0: constant speed).
+    pub rate_drift_per_s: f64,
 }
 
 impl ImpactTrain {
@@ -95,6 +98,7 @@ impl ImpactTrain {
             modulation_depth: 0.0,
             modulation_hz: 0.0,
             jitter: 0.0,
+            rate_drift_per_s: 0.0,
         }
     }
 
@@ -107,6 +111,7 @@ impl ImpactTrain {
             self.modulation_depth,
             self.modulation_hz,
             self.jitter,
+            self.rate_drift_per_s,
         ];
         if v.iter().any(|x| !x.is_finite()) {
             return Err(Error::NonFinite);
@@ -139,11 +144,29 @@ impl ImpactTrain {
         let period = 1.0 / self.rate_hz;
         let margin = PULSE_HALF_WIDTH_SIGMAS * self.sigma_s + 6.0 * self.jitter * period;
         let t_end = grid.t0 + out.len() as f64 * grid.dt;
-        let n_first = math::floor((grid.t0 - margin - self.first_impact_s) / period) + 1.0;
+        let d = self.rate_drift_per_s;
+        // Warped time τ(t) = t + ½·d·t²: impacts sit at τ(t_n) = t_1 + n·T, so the rate
+        // is rate·(1 + d·t). τ is monotonic where 1 + d·t > 0, which validate() and the
+        // record lengths used here guarantee.
+        let warp = |t: f64| t + 0.5 * d * t * t;
+        let unwarp = |tau: f64| {
+            if d == 0.0 {
+                tau
+            } else {
+                let disc = 1.0 + 2.0 * d * tau;
+                if disc <= 0.0 {
+                    -1.0 / d
+                } else {
+                    (math::sqrt(disc) - 1.0) / d
+                }
+            }
+        };
+        let tau_lo = warp((grid.t0 - margin).max(0.0).min(grid.t0 - margin));
+        let n_first = math::floor((tau_lo - self.first_impact_s) / period) + 1.0;
         let mut n = if n_first < 0.0 { 0.0 } else { n_first };
         loop {
-            let nominal = self.first_impact_s + n * period;
-            if nominal > t_end + margin {
+            let nominal = unwarp(self.first_impact_s + n * period);
+            if nominal > t_end + margin || !nominal.is_finite() {
                 break;
             }
             let t_n = if self.jitter > 0.0 {
@@ -151,9 +174,9 @@ impl ImpactTrain {
             } else {
                 nominal
             };
-            let d = self.modulation_depth;
-            let am =
-                1.0 - d + d * 0.5 * (1.0 + math::cos(2.0 * math::PI * self.modulation_hz * t_n));
+            let depth = self.modulation_depth;
+            let am = 1.0 - depth
+                + depth * 0.5 * (1.0 + math::cos(2.0 * math::PI * self.modulation_hz * warp(t_n)));
             add_gaussian_pulse(out, grid, t_n, self.sigma_s, weight * self.amplitude * am);
             n += 1.0;
         }
@@ -170,6 +193,8 @@ pub struct ShaftSinusoid {
     pub shaft_hz: f64,
     /// φ, rad.
     pub phase_rad: f64,
+    /// Linear speed drift, as in [`ImpactTrain::rate_drift_per_s`] (0: constant speed).
+    pub drift_per_s: f64,
 }
 
 impl ShaftSinusoid {
@@ -365,6 +390,7 @@ mod tests {
                 amplitude: 2.0,
                 shaft_hz: 25.0,
                 phase_rad: 0.0,
+                drift_per_s: 0.0,
             },
             random: RandomExcitation {
                 noise_std: 0.0,
@@ -387,12 +413,41 @@ mod tests {
         assert!(fr[0].abs() < 1e-12);
     }
 
+    /// With drift d, impact n sits where t + ½·d·t² = t_1 + n·T.
+    #[test]
+    fn speed_drift_compresses_impact_spacing() {
+        let train = ImpactTrain {
+            rate_drift_per_s: 0.1,
+            ..ImpactTrain::periodic(1.0, 100.0, 2e-5)
+        };
+        let grid = TimeGrid { t0: 0.0, dt: 1e-5 };
+        let mut out = vec![0.0; 200_000]; // 2 s
+        train
+            .add_to(grid, 1.0, &mut out, &mut Xoshiro128pp::seed_from_u64(0))
+            .unwrap();
+        let peaks: std::vec::Vec<f64> = (1..out.len() - 1)
+            .filter(|&j| out[j] > out[j - 1] && out[j] >= out[j + 1] && out[j] > 0.5)
+            .map(|j| j as f64 * grid.dt)
+            .collect();
+        // τ(2 s) = 2 + 0.2 = 2.2 s of warped time: impacts n = 0..=220, of which the
+        // half pulses at the two ends (t = 0 and t = 2 s) are not interior peaks.
+        assert_eq!(peaks.len(), 219);
+        let early = peaks[1] - peaks[0];
+        let late = peaks[218] - peaks[217];
+        assert!((early - 0.01).abs() < 2e-5, "early spacing {early}");
+        assert!(
+            (late / early - 1.0 / 1.19).abs() < 0.01,
+            "late spacing {late}"
+        );
+    }
+
     #[test]
     fn sinusoid_recurrence_matches_libm() {
         let sinus = ShaftSinusoid {
             amplitude: 3.0,
             shaft_hz: 29.93,
             phase_rad: 0.7,
+            drift_per_s: 0.0,
         };
         let grid = TimeGrid {
             t0: 0.25,

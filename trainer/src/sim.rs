@@ -156,11 +156,13 @@ impl SimulationSpec {
                 modulation_depth: depth,
                 modulation_hz: mod_hz,
                 jitter: self.jitter,
+                rate_drift_per_s: 0.0,
             },
             sinusoid: ShaftSinusoid {
                 amplitude: self.unbalance_n,
                 shaft_hz,
                 phase_rad: 0.0,
+                drift_per_s: 0.0,
             },
             random: RandomExcitation {
                 noise_std: self.background_n,

@@ -59,6 +59,7 @@ pub extern "C" fn probe_simulate(seed: u64) -> f32 {
             amplitude: 20.0,
             shaft_hz: 29.95,
             phase_rad: 0.0,
+            drift_per_s: 0.0,
         },
         random: RandomExcitation {
             noise_std: 1.0,
