@@ -8,3 +8,4 @@ pub mod data;
 pub mod featurize;
 pub mod plot;
 pub mod sim;
+pub mod twin;

@@ -4,7 +4,9 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::{Args, Parser, Subcommand};
-use pumptwin_trainer::cli::{run_features, run_simulate, FeaturesArgs, SimulateArgs};
+use pumptwin_trainer::cli::{
+    run_features, run_simulate, run_twin, FeaturesArgs, SimulateArgs, TwinCmd,
+};
 use pumptwin_trainer::data::preprocess::{PreprocessConfig, MODEL_FS_HZ};
 use pumptwin_trainer::data::summary::summarize;
 use pumptwin_trainer::data::windows::{Protocol, WindowConfig, DEFAULT_HOP, DEFAULT_WINDOW_LEN};
@@ -27,6 +29,9 @@ enum Command {
     Simulate(SimulateArgs),
     /// Print (or write) the core's node features and dynamic graphs of a record.
     Features(FeaturesArgs),
+    /// The closed loop between measurement and the bearing model.
+    #[command(subcommand)]
+    Twin(TwinCmd),
 }
 
 /// `pumptwin data …`
@@ -80,5 +85,6 @@ fn main() -> anyhow::Result<()> {
         Command::Data(DataCmd::Summary(args)) => data_summary(args),
         Command::Simulate(args) => run_simulate(args),
         Command::Features(args) => run_features(args),
+        Command::Twin(cmd) => run_twin(cmd),
     }
 }

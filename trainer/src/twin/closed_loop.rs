@@ -1,0 +1,537 @@
+//! The loop: fit → residual → trace → add effect → refit → repeat (issue "close the
+//! loop with measured data"). The loop is told only what a user knows: the signal,
+//! its sampling rate, the nominal speed and the bearing geometry.
+
+use super::fit::{evaluate, fit, FitConfig, FitError, FitResult, Target};
+use super::model::{fault_name, Effect, OperatingPoint, TwinModel};
+use super::residual::{analyse, trace, Evidence, ResidualAnalysis, TraceContext};
+use super::signature::{to_db, ErrorFigures, Signature, SignatureConfig};
+use pumptwin_core::bearing::{BearingGeometry, DefectLocation};
+use pumptwin_core::features::harmonic_level_db;
+use std::time::Instant;
+
+/// What the loop is given.
+#[derive(Debug, Clone)]
+pub struct LoopInput {
+    /// One channel of measured acceleration.
+    pub signal: Vec<f32>,
+    /// Sampling rate, Hz.
+    pub fs_hz: f32,
+    /// Nominal speed, rpm.
+    pub rpm: f32,
+    /// Bearing geometry.
+    pub bearing: BearingGeometry,
+}
+
+/// Loop settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LoopConfig {
+    /// Effects added at most.
+    pub max_steps: usize,
+    /// Seconds simulated per fit evaluation.
+    pub fit_seconds: f64,
+    /// Seconds simulated for the residual.
+    pub residual_seconds: f64,
+    /// Seconds of the measurement used (from the start).
+    pub max_record_seconds: f64,
+    /// An effect is kept only if it lowers the loop error by this fraction.
+    pub min_relative_gain: f32,
+    /// Levenberg–Marquardt iterations per fit.
+    pub max_iter: usize,
+    /// PRNG seed of the model's random terms.
+    pub seed: u64,
+    /// Envelope line level (dB over the median) that makes a fault hypothesis.
+    pub fault_threshold_db: f32,
+}
+
+impl Default for LoopConfig {
+    fn default() -> Self {
+        Self {
+            max_steps: 5,
+            fit_seconds: 2.0,
+            residual_seconds: 4.0,
+            max_record_seconds: 10.0,
+            min_relative_gain: 0.03,
+            max_iter: 12,
+            seed: 0x7717,
+            fault_threshold_db: 8.0,
+        }
+    }
+}
+
+/// One accepted step of the loop.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct LoopStep {
+    /// Effect name.
+    pub effect: String,
+    /// The effect with its settings.
+    pub detail: Effect,
+    /// Why it was added.
+    pub evidence: Evidence,
+    /// Physical parameters after the refit.
+    pub params: serde_json::Map<String, serde_json::Value>,
+    /// Errors before adding it.
+    pub error_before: ErrorFigures,
+    /// Errors after adding it and refitting.
+    pub error_after: ErrorFigures,
+    /// Loop cost before / after.
+    pub cost_before: f32,
+    /// Loop cost after.
+    pub cost_after: f32,
+}
+
+/// A candidate that was tried and rejected.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct RejectedCandidate {
+    /// Effect name.
+    pub effect: String,
+    /// Evidence.
+    pub evidence: Evidence,
+    /// Cost before and with the effect.
+    pub cost_before: f32,
+    /// Cost with the effect.
+    pub cost_after: f32,
+}
+
+/// The loop's report (the JSON downstream tools read).
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct LoopReport {
+    /// Fault hypothesis: `outer_race`, `inner_race`, `ball`, `none`.
+    pub fault: String,
+    /// Envelope line levels (dB over the median) that decided it.
+    pub fault_evidence: serde_json::Map<String, serde_json::Value>,
+    /// Physical parameters of the first fit.
+    pub params_initial: serde_json::Map<String, serde_json::Value>,
+    /// Physical parameters at the end.
+    pub params_final: serde_json::Map<String, serde_json::Value>,
+    /// Accepted steps.
+    pub steps: Vec<LoopStep>,
+    /// Effect names added, in order.
+    pub effects: Vec<String>,
+    /// Errors of the first fit.
+    pub error_initial: ErrorFigures,
+    /// Errors at the end.
+    pub error_final: ErrorFigures,
+    /// No significant residual component is left.
+    pub residual_noise_like: bool,
+    /// Why the loop stopped.
+    pub stop_reason: String,
+    /// Candidates tried and rejected.
+    pub rejected: Vec<RejectedCandidate>,
+    /// Significant residual components left at the end (defect-comb lines excluded).
+    pub residual_components_final: Vec<super::residual::Component>,
+    /// Wall time, s.
+    pub seconds: f64,
+    /// Model evaluations.
+    pub evaluations: usize,
+}
+
+/// Spectra for the before/after plots.
+#[derive(Debug, Clone)]
+pub struct LoopArtifacts {
+    /// Measured signature at residual resolution.
+    pub measured: Signature,
+    /// Model signature after the first fit.
+    pub initial: Signature,
+    /// Model signature at the end.
+    pub final_: Signature,
+    /// Signature settings.
+    pub cfg: SignatureConfig,
+    /// Final residual analysis.
+    pub residual: ResidualAnalysis,
+}
+
+/// Errors of the loop.
+#[derive(Debug, thiserror::Error)]
+pub enum LoopError {
+    /// Bad input.
+    #[error("{0}")]
+    Input(String),
+    /// A fit failed.
+    #[error(transparent)]
+    Fit(#[from] FitError),
+}
+
+/// Step 1a: which defect, from the measured envelope spectrum.
+fn identify_fault(
+    target: &Target,
+    op: &OperatingPoint,
+    threshold: f32,
+) -> (
+    Option<DefectLocation>,
+    serde_json::Map<String, serde_json::Value>,
+) {
+    let cfg = &target.cfg;
+    let env = &target.meas.env;
+    let bins = cfg.env_bins();
+    let mut v: Vec<f32> = bins.map(|k| env[k]).collect();
+    let mid = v.len() / 2;
+    let floor = *v.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1;
+    let f = &op.freqs;
+    let level = |hz: f32| harmonic_level_db(env, cfg.fs_hz, hz, 2, 0.02, floor);
+    let candidates = [
+        (Some(DefectLocation::OuterRace), level(f.bpfo)),
+        (Some(DefectLocation::InnerRace), level(f.bpfi)),
+        (
+            Some(DefectLocation::Ball),
+            level(2.0 * f.bsf).max(level(f.bsf)),
+        ),
+    ];
+    let mut ev = serde_json::Map::new();
+    ev.insert("bpfo_db".into(), serde_json::json!(candidates[0].1));
+    ev.insert("bpfi_db".into(), serde_json::json!(candidates[1].1));
+    ev.insert("bsf_db".into(), serde_json::json!(candidates[2].1));
+    ev.insert("shaft_db".into(), serde_json::json!(level(f.shaft)));
+    ev.insert("threshold_db".into(), serde_json::json!(threshold));
+    let best = candidates
+        .iter()
+        .copied()
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+        .unwrap_or((None, 0.0));
+    if best.1 >= threshold {
+        (best.0, ev)
+    } else {
+        (None, ev)
+    }
+}
+
+/// Step 1b: starting values. Natural frequency from the measured PSD's strongest
+/// peaks (each tried, best kept), amplitude scaled to the measured RMS (linear model).
+fn initial_model(
+    target: &Target,
+    op: OperatingPoint,
+    fault: Option<DefectLocation>,
+    fit_cfg: &FitConfig,
+) -> Result<(TwinModel, usize), FitError> {
+    let cfg = &target.cfg;
+    let db = &target.psd_db;
+    let lo = (1000.0 / (cfg.fs_hz / cfg.psd_n as f32)) as usize;
+    let hi = *cfg.psd_bins().end() - 2;
+    // Local maxima of the PSD smoothed over ±3 bins.
+    let smooth: Vec<f32> = (0..db.len())
+        .map(|k| {
+            let a = k.saturating_sub(3);
+            let b = (k + 3).min(db.len() - 1);
+            db[a..=b].iter().sum::<f32>() / (b - a + 1) as f32
+        })
+        .collect();
+    let mut peaks: Vec<usize> = (lo.max(1)..hi)
+        .filter(|&k| smooth[k] > smooth[k - 1] && smooth[k] >= smooth[k + 1])
+        .collect();
+    peaks.sort_by(|&a, &b| smooth[b].total_cmp(&smooth[a]));
+    peaks.truncate(4);
+    if peaks.is_empty() {
+        peaks.push((lo + hi) / 2);
+    }
+    let rms = f64::from(target.meas.rms);
+    let mut best: Option<(TwinModel, f32)> = None;
+    let mut evals = 0;
+    for k in peaks {
+        let fn_hz = f64::from(cfg.psd_freq(k));
+        let m = TwinModel::base(op, fault, fn_hz, 0.05, 1.0, 0.05 * rms);
+        // Scale the excitation so the simulated RMS matches.
+        let y = m.render(fit_cfg.n_sim, fit_cfg.seed)?;
+        evals += 1;
+        let r = (y.iter().map(|v| f64::from(*v).powi(2)).sum::<f64>() / y.len() as f64)
+            .sqrt()
+            .max(1e-30);
+        let scale = (rms / r).ln();
+        let mut theta = m.theta();
+        for (i, p) in m.params.iter().enumerate() {
+            if p.name == "ln_impact_amp" || p.name == "ln_background" {
+                theta[i] += scale;
+            }
+        }
+        let m = m.with_theta(&theta);
+        let (_, cost, _) = evaluate(&m, target, fit_cfg)?;
+        evals += 1;
+        if best.as_ref().is_none_or(|(_, c)| cost < *c) {
+            best = Some((m, cost));
+        }
+    }
+    let (m, _) = best.expect("at least one peak tried");
+    Ok((m, evals))
+}
+
+/// Mean over `components` of the largest `measured − model` dB residual within ±1 bin
+/// of each, in its domain.
+fn local_excess(
+    meas: &Signature,
+    sim: &Signature,
+    cfg: &SignatureConfig,
+    components: &[super::residual::Component],
+) -> f32 {
+    let psd_m = to_db(&meas.psd, &meas.psd);
+    let psd_s = to_db(&sim.psd, &meas.psd);
+    let env_m = to_db(&meas.env, &meas.env);
+    let env_s = to_db(&sim.env, &meas.env);
+    let mut total = 0.0;
+    for c in components {
+        let (m, s, n) = if c.domain == "psd" {
+            (&psd_m, &psd_s, cfg.psd_n)
+        } else {
+            (&env_m, &env_s, cfg.env_n)
+        };
+        let k = (c.f_hz * n as f64 / f64::from(cfg.fs_hz)).round() as usize;
+        let lo = k.saturating_sub(1);
+        let hi = (k + 1).min(m.len() - 1);
+        total += (lo..=hi)
+            .map(|i| m[i] - s[i])
+            .fold(f32::NEG_INFINITY, f32::max);
+    }
+    total / components.len().max(1) as f32
+}
+
+/// Significant residual components that are not lines of the modelled defect's comb.
+fn unexplained(a: &ResidualAnalysis, model: &TwinModel) -> Vec<super::residual::Component> {
+    let comb = model.fault.map(|loc| {
+        f64::from(model.op.freqs.impact_rate(loc)) * (1.0 + model.get("rate_factor").unwrap_or(0.0))
+    });
+    a.psd
+        .iter()
+        .chain(a.envelope.iter())
+        .filter(|c| {
+            let df = if c.domain == "psd" { 3.0 } else { 1.5 };
+            !(c.kind == "line"
+                && comb.is_some_and(|r| {
+                    let k = (c.f_hz / r).round();
+                    k >= 1.0 && (c.f_hz - k * r).abs() <= 2.0 * df + 0.002 * c.f_hz
+                }))
+        })
+        .cloned()
+        .collect()
+}
+
+/// Defect rate refined from the measured line-resolution PSD: the rate within ±3 % of
+/// the kinematic one whose harmonic comb collects the most log power up to the band
+/// limit (a periodic impact train puts lines at every k·rate). Returns the rate factor
+/// `rate / kinematic − 1`.
+fn refine_rate(target_res: &Target, kinematic_hz: f32) -> f64 {
+    let cfg = &target_res.cfg;
+    let db = &target_res.psd_db;
+    let df = cfg.fs_hz / cfg.psd_n as f32;
+    let top = cfg.psd_hi_hz;
+    let score = |rate: f32| -> f32 {
+        let mut s = 0.0;
+        let mut k = 1.0f32;
+        while k * rate < top {
+            let pos = k * rate / df;
+            let i = pos.floor() as usize;
+            let frac = pos - i as f32;
+            if i + 1 < db.len() {
+                s += db[i] * (1.0 - frac) + db[i + 1] * frac;
+            }
+            k += 1.0;
+        }
+        s / (k - 1.0).max(1.0)
+    };
+    let mut best = (0.0f64, f32::NEG_INFINITY);
+    for i in -3000..=3000 {
+        let factor = f64::from(i) * 1e-5;
+        let sc = score(kinematic_hz * (1.0 + factor as f32));
+        if sc > best.1 {
+            best = (factor, sc);
+        }
+    }
+    best.0
+}
+
+/// Run the whole loop.
+pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtifacts), LoopError> {
+    let t0 = Instant::now();
+    if !(input.fs_hz.is_finite() && input.fs_hz >= 4000.0) {
+        return Err(LoopError::Input(format!(
+            "sampling rate {} Hz: need >= 4 kHz",
+            input.fs_hz
+        )));
+    }
+    if !(input.rpm.is_finite() && input.rpm > 0.0) {
+        return Err(LoopError::Input("rpm must be > 0".into()));
+    }
+    if input.signal.iter().any(|v| !v.is_finite()) {
+        return Err(LoopError::Input("signal contains NaN or infinity".into()));
+    }
+    let n_max = (cfg.max_record_seconds * f64::from(input.fs_hz)) as usize;
+    let x = &input.signal[..input.signal.len().min(n_max)];
+    let sig_fit = SignatureConfig::fit(input.fs_hz);
+    let sig_res = SignatureConfig::residual(input.fs_hz);
+    if x.len() < 2 * sig_fit.env_n {
+        return Err(LoopError::Input(format!(
+            "record of {} samples is too short: need {}",
+            x.len(),
+            2 * sig_fit.env_n
+        )));
+    }
+    let op = OperatingPoint {
+        fs_hz: input.fs_hz,
+        freqs: input.bearing.frequencies(input.rpm / 60.0),
+    };
+    let target = Target::of(x, sig_fit).map_err(|e| LoopError::Fit(e.into()))?;
+    let target_res = Target::of(x, sig_res).map_err(|e| LoopError::Fit(e.into()))?;
+    let fit_cfg = FitConfig {
+        n_sim: (cfg.fit_seconds * f64::from(input.fs_hz)) as usize,
+        seed: cfg.seed,
+        max_iter: cfg.max_iter,
+    };
+    let n_res = ((cfg.residual_seconds * f64::from(input.fs_hz)) as usize).max(2 * sig_res.env_n);
+
+    let (fault, fault_evidence) = identify_fault(&target, &op, cfg.fault_threshold_db);
+    let (mut start, mut evaluations) = initial_model(&target, op, fault, &fit_cfg)?;
+    if let Some(loc) = fault {
+        let factor = refine_rate(&target_res, op.freqs.impact_rate(loc));
+        if let Some(p) = start.params.iter_mut().find(|p| p.name == "rate_factor") {
+            p.value = factor;
+        }
+    }
+    let mut current: FitResult = fit(&start, &target, &fit_cfg)?;
+    evaluations += current.evaluations;
+    let first = current.clone();
+    let residual_of = |m: &TwinModel| -> Result<(Vec<f32>, Signature), LoopError> {
+        let y = m
+            .render(n_res, cfg.seed ^ 0x5eed)
+            .map_err(|e| LoopError::Fit(e.into()))?;
+        let s = Signature::of(&y, &sig_res).map_err(|e| LoopError::Fit(e.into()))?;
+        Ok((y, s))
+    };
+    let (_, initial_sig) = residual_of(&first.model)?;
+
+    let mut steps = Vec::new();
+    let mut rejected = Vec::new();
+    let mut stop_reason = format!("reached the step limit ({})", cfg.max_steps);
+    let mut residual_noise_like = false;
+    let mut last_analysis;
+    let mut tried: Vec<String> = Vec::new();
+    loop {
+        let (y_sim, sim_sig) = residual_of(&current.model)?;
+        let analysis = analyse(
+            &target_res.meas,
+            &sim_sig,
+            &sig_res,
+            f64::from(op.freqs.shaft),
+        );
+        let sim_sig_now = sim_sig.clone();
+        let ctx = TraceContext {
+            x,
+            sim: &y_sim,
+            model: &current.model,
+            cfg: &sig_res,
+        };
+        let candidates: Vec<_> = trace(&analysis, &ctx)
+            .into_iter()
+            .filter(|c| !tried.contains(&c.effect.name().to_string()))
+            .collect();
+        let significant = unexplained(&analysis, &current.model).len();
+        last_analysis = analysis;
+        if significant == 0 && candidates.is_empty() {
+            residual_noise_like = true;
+            stop_reason = "the residual is noise-like: no component stands above the floor".into();
+            break;
+        }
+        if steps.len() >= cfg.max_steps {
+            break;
+        }
+        if candidates.is_empty() {
+            stop_reason = format!("{significant} residual component(s) left, but none traces to an effect not yet tried");
+            break;
+        }
+        let mut accepted = false;
+        for cand in candidates.into_iter().take(3) {
+            tried.push(cand.effect.name().to_string());
+            let trial = fit(
+                &current.model.with_effect(cand.effect.clone()),
+                &target,
+                &fit_cfg,
+            )?;
+            evaluations += trial.evaluations;
+            // Where the evidence is a few lines, their share of the global error is small:
+            // accept when the global cost falls at all and the evidence itself shrinks
+            // by at least 3 dB; otherwise demand the global relative gain.
+            let local_ok = if cand.evidence.components.is_empty() {
+                false
+            } else {
+                let (_, trial_sig) = residual_of(&trial.model)?;
+                let before = local_excess(
+                    &target_res.meas,
+                    &sim_sig_now,
+                    &sig_res,
+                    &cand.evidence.components,
+                );
+                let after = local_excess(
+                    &target_res.meas,
+                    &trial_sig,
+                    &sig_res,
+                    &cand.evidence.components,
+                );
+                after <= before - 3.0 && trial.cost < current.cost * 0.999
+            };
+            if local_ok || trial.cost < current.cost * (1.0 - cfg.min_relative_gain) {
+                steps.push(LoopStep {
+                    effect: cand.effect.name().to_string(),
+                    detail: cand.effect,
+                    evidence: cand.evidence,
+                    params: trial.model.physical(),
+                    error_before: current.figures,
+                    error_after: trial.figures,
+                    cost_before: current.cost,
+                    cost_after: trial.cost,
+                });
+                current = trial;
+                accepted = true;
+                break;
+            }
+            rejected.push(RejectedCandidate {
+                effect: cand.effect.name().to_string(),
+                evidence: cand.evidence,
+                cost_before: current.cost,
+                cost_after: trial.cost,
+            });
+        }
+        if !accepted {
+            stop_reason = "no candidate effect lowers the error".into();
+            break;
+        }
+    }
+    let (_, final_sig) = residual_of(&current.model)?;
+    let report = LoopReport {
+        fault: fault_name(fault).into(),
+        fault_evidence,
+        params_initial: first.model.physical(),
+        params_final: current.model.physical(),
+        effects: steps.iter().map(|s| s.effect.clone()).collect(),
+        steps,
+        error_initial: first.figures,
+        error_final: current.figures,
+        residual_noise_like,
+        stop_reason,
+        rejected,
+        residual_components_final: unexplained(&last_analysis, &current.model),
+        seconds: t0.elapsed().as_secs_f64(),
+        evaluations,
+    };
+    let artifacts = LoopArtifacts {
+        measured: target_res.meas,
+        initial: initial_sig,
+        final_: final_sig,
+        cfg: sig_res,
+        residual: last_analysis,
+    };
+    Ok((report, artifacts))
+}
+
+/// dB spectra pairs for plotting: `(f, measured dB, model dB)`.
+pub fn psd_pairs(a: &LoopArtifacts, model: &Signature) -> Vec<(f32, f32, f32)> {
+    let m = to_db(&a.measured.psd, &a.measured.psd);
+    let s = to_db(&model.psd, &a.measured.psd);
+    a.cfg
+        .psd_bins()
+        .map(|k| (a.cfg.psd_freq(k), m[k], s[k]))
+        .collect()
+}
+
+/// Envelope spectra pairs for plotting, linear.
+pub fn envelope_pairs(a: &LoopArtifacts, model: &Signature) -> Vec<(f32, f32, f32)> {
+    a.cfg
+        .env_bins()
+        .map(|k| (a.cfg.env_freq(k), a.measured.env[k], model.env[k]))
+        .collect()
+}

@@ -1,0 +1,214 @@
+//! Fitting Θ to a measured signature: eq. 10 (`Θ ← Θ − η ∂L_phy/∂Θ`) realized as
+//! Levenberg–Marquardt, the damped Gauss–Newton form of the same gradient step, on the
+//! residual vector of [`super::signature::residual_vector`]. The Jacobian is taken by
+//! forward differences with common random numbers (one fixed PRNG seed for every
+//! evaluation), so the loss is a smooth function of Θ even though the model has random
+//! excitation.
+
+use super::model::TwinModel;
+use super::signature::{
+    error_figures, residual_vector, to_db, ErrorFigures, Signature, SignatureConfig, SignatureError,
+};
+
+/// What a fit compares against.
+#[derive(Debug, Clone)]
+pub struct Target {
+    /// Measured signature.
+    pub meas: Signature,
+    /// Its PSD in dB.
+    pub psd_db: Vec<f32>,
+    /// Its envelope spectrum in dB.
+    pub env_db: Vec<f32>,
+    /// Signature settings.
+    pub cfg: SignatureConfig,
+}
+
+impl Target {
+    /// Signature of a measured signal.
+    pub fn of(x: &[f32], cfg: SignatureConfig) -> Result<Self, SignatureError> {
+        let meas = Signature::of(x, &cfg)?;
+        let psd_db = to_db(&meas.psd, &meas.psd);
+        let env_db = to_db(&meas.env, &meas.env);
+        Ok(Self {
+            meas,
+            psd_db,
+            env_db,
+            cfg,
+        })
+    }
+}
+
+/// Settings of one fit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FitConfig {
+    /// Samples simulated per evaluation.
+    pub n_sim: usize,
+    /// PRNG seed shared by all evaluations (common random numbers).
+    pub seed: u64,
+    /// Levenberg–Marquardt iterations at most.
+    pub max_iter: usize,
+}
+
+/// A fitted model and how well it fits.
+#[derive(Debug, Clone)]
+pub struct FitResult {
+    /// The model at the optimum.
+    pub model: TwinModel,
+    /// [`super::signature::total_error`] at the optimum (= Σ r²).
+    pub cost: f32,
+    /// Error figures at the optimum.
+    pub figures: ErrorFigures,
+    /// Model evaluations spent.
+    pub evaluations: usize,
+}
+
+/// Errors of a fit.
+#[derive(Debug, thiserror::Error)]
+pub enum FitError {
+    /// Simulation failed.
+    #[error("simulation: {0}")]
+    Core(#[from] pumptwin_core::Error),
+    /// Signature failed.
+    #[error("signature: {0}")]
+    Signature(#[from] SignatureError),
+}
+
+/// Simulate `model` and compare: `(residual vector, cost, signature)`.
+pub fn evaluate(
+    model: &TwinModel,
+    target: &Target,
+    cfg: &FitConfig,
+) -> Result<(Vec<f32>, f32, Signature), FitError> {
+    let y = model.render(cfg.n_sim, cfg.seed)?;
+    let sig = Signature::of(&y, &target.cfg)?;
+    let r = residual_vector(
+        &sig,
+        &target.psd_db,
+        &target.env_db,
+        &target.meas,
+        &target.cfg,
+    );
+    let cost = r.iter().map(|v| v * v).sum();
+    Ok((r, cost, sig))
+}
+
+/// Solve the symmetric positive definite system `a·x = b` (Cholesky); `None` if singular.
+fn solve_spd(a: &[Vec<f64>], b: &[f64]) -> Option<Vec<f64>> {
+    let n = b.len();
+    let mut l = vec![vec![0.0f64; n]; n];
+    for i in 0..n {
+        for j in 0..=i {
+            let s: f64 = (0..j).map(|k| l[i][k] * l[j][k]).sum();
+            if i == j {
+                let d = a[i][i] - s;
+                if d <= 0.0 || !d.is_finite() {
+                    return None;
+                }
+                l[i][j] = d.sqrt();
+            } else {
+                l[i][j] = (a[i][j] - s) / l[j][j];
+            }
+        }
+    }
+    let mut y = vec![0.0f64; n];
+    for i in 0..n {
+        y[i] = (b[i] - (0..i).map(|k| l[i][k] * y[k]).sum::<f64>()) / l[i][i];
+    }
+    let mut x = vec![0.0f64; n];
+    for i in (0..n).rev() {
+        x[i] = (y[i] - ((i + 1)..n).map(|k| l[k][i] * x[k]).sum::<f64>()) / l[i][i];
+    }
+    Some(x)
+}
+
+/// Levenberg–Marquardt from `start`.
+pub fn fit(start: &TwinModel, target: &Target, cfg: &FitConfig) -> Result<FitResult, FitError> {
+    let mut theta = start.theta();
+    let p = theta.len();
+    let (mut r, mut cost, _) = evaluate(start, target, cfg)?;
+    let mut evaluations = 1;
+    let mut lambda = 1e-2f64;
+    for _ in 0..cfg.max_iter {
+        // Jacobian by forward differences.
+        let mut jac = vec![vec![0.0f64; r.len()]; p];
+        for (i, col) in jac.iter_mut().enumerate() {
+            let step = start.params[i].step;
+            let mut t = theta.clone();
+            t[i] += step;
+            let (ri, _, _) = evaluate(&start.with_theta(&t), target, cfg)?;
+            evaluations += 1;
+            for (c, (a, b)) in col.iter_mut().zip(ri.iter().zip(&r)) {
+                *c = f64::from(a - b) / step;
+            }
+        }
+        let mut jtj = vec![vec![0.0f64; p]; p];
+        let mut jtr = vec![0.0f64; p];
+        for i in 0..p {
+            for j in 0..=i {
+                let s: f64 = jac[i].iter().zip(&jac[j]).map(|(a, b)| a * b).sum();
+                jtj[i][j] = s;
+                jtj[j][i] = s;
+            }
+            jtr[i] = jac[i].iter().zip(&r).map(|(a, b)| a * f64::from(*b)).sum();
+        }
+        let mut improved = false;
+        for _ in 0..6 {
+            let mut a = jtj.clone();
+            for (i, row) in a.iter_mut().enumerate() {
+                row[i] += lambda * row[i].max(1e-9) + 1e-12;
+            }
+            let neg_g: Vec<f64> = jtr.iter().map(|v| -v).collect();
+            let Some(mut delta) = solve_spd(&a, &neg_g) else {
+                lambda *= 4.0;
+                continue;
+            };
+            // Trust region in unconstrained units: no parameter moves by more than 0.7.
+            let biggest = delta.iter().fold(0.0f64, |m, d| m.max(d.abs()));
+            if biggest > 0.7 {
+                delta.iter_mut().for_each(|d| *d *= 0.7 / biggest);
+            }
+            let trial: Vec<f64> = theta.iter().zip(&delta).map(|(t, d)| t + d).collect();
+            let candidate = start.with_theta(&trial);
+            let outcome = evaluate(&candidate, target, cfg);
+            evaluations += 1;
+            match outcome {
+                Ok((rt, ct, _)) if ct < cost => {
+                    let gain = (cost - ct) / cost.max(1e-12);
+                    theta = trial;
+                    r = rt;
+                    cost = ct;
+                    lambda = (lambda / 3.0).max(1e-7);
+                    improved = gain > 1e-4;
+                    break;
+                }
+                _ => lambda *= 4.0,
+            }
+        }
+        if !improved {
+            break;
+        }
+    }
+    let model = start.with_theta(&theta);
+    let (_, _, sig) = evaluate(&model, target, cfg)?;
+    let figures = error_figures(&sig, &target.meas, &target.cfg);
+    Ok(FitResult {
+        model,
+        cost,
+        figures,
+        evaluations: evaluations + 1,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cholesky_solves() {
+        let a = vec![vec![4.0, 2.0], vec![2.0, 3.0]];
+        let x = solve_spd(&a, &[2.0, 1.0]).unwrap();
+        assert!((4.0 * x[0] + 2.0 * x[1] - 2.0).abs() < 1e-12);
+        assert!((2.0 * x[0] + 3.0 * x[1] - 1.0).abs() < 1e-12);
+        assert!(solve_spd(&[vec![0.0]], &[1.0]).is_none());
+    }
+}

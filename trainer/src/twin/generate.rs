@@ -1,0 +1,145 @@
+//! Records with one undeclared effect each, for testing the loop where the truth is
+//! known. They come from [`crate::sim`] (the multi-node simulator with its own effect
+//! terms), not from the twin's model, and the loop is handed only the signal, the
+//! sampling rate, the nominal speed and the bearing: it never sees these settings.
+
+use crate::sim::{simulate, ExtraTerms, SensorSpec, SimError, SimulationSpec, G};
+use pumptwin_core::bearing::DefectLocation;
+use pumptwin_core::simulator::SensorTransfer;
+
+/// The effect a generated record carries.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Injected {
+    /// Clean control: an outer-race fault exactly as the base model describes it.
+    None,
+    /// 1× and 2× shaft-rate force (unbalance, misalignment).
+    ShaftHarmonics,
+    /// Inner-race fault whose impacts are modulated by the rotating load zone.
+    LoadZoneModulation,
+    /// Random impact timing (rolling-element slip).
+    Slip,
+    /// A second structural mode at 1.8 kHz driven by the same impacts.
+    ExtraResonance,
+    /// 50 Hz mains and harmonics on the sensor line.
+    LineInterference,
+    /// Speed drifting linearly through the record.
+    SpeedDrift,
+    /// Hardening cubic stiffness.
+    NonlinearStiffness,
+    /// A sinusoid at 437.3 Hz nobody declared (not a shaft order, mains line or defect rate).
+    UnknownPeriodic,
+}
+
+impl Injected {
+    /// Every injectable effect except the control.
+    pub const EFFECTS: [Injected; 8] = [
+        Injected::ShaftHarmonics,
+        Injected::LoadZoneModulation,
+        Injected::Slip,
+        Injected::ExtraResonance,
+        Injected::LineInterference,
+        Injected::SpeedDrift,
+        Injected::NonlinearStiffness,
+        Injected::UnknownPeriodic,
+    ];
+
+    /// The effect name the loop should report.
+    pub fn expected_effect(self) -> Option<&'static str> {
+        match self {
+            Injected::None => None,
+            Injected::ShaftHarmonics => Some("shaft_harmonics"),
+            Injected::LoadZoneModulation => Some("load_zone_modulation"),
+            Injected::Slip => Some("slip"),
+            Injected::ExtraResonance => Some("extra_resonance"),
+            Injected::LineInterference => Some("line_interference"),
+            Injected::SpeedDrift => Some("speed_drift"),
+            Injected::NonlinearStiffness => Some("nonlinear_stiffness"),
+            Injected::UnknownPeriodic => Some("unexplained_periodic"),
+        }
+    }
+}
+
+/// How strong the injected effect is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Strength {
+    /// A level typical of real machines.
+    Realistic,
+    /// About a third of it, near the detection limit.
+    Weak,
+}
+
+/// Nominal speed of the generated records, rpm.
+pub const RPM: f32 = 1797.0;
+/// Sampling rate, Hz.
+pub const FS_HZ: f32 = 12_000.0;
+
+/// A single-channel (drive-end) record carrying `effect` at `strength`.
+pub fn generate(
+    effect: Injected,
+    strength: Strength,
+    duration_s: f64,
+    seed: u64,
+) -> Result<Vec<f32>, SimError> {
+    let s = if strength == Strength::Realistic {
+        1.0
+    } else {
+        0.35
+    };
+    let fault = if effect == Injected::LoadZoneModulation {
+        DefectLocation::InnerRace
+    } else {
+        DefectLocation::OuterRace
+    };
+    let mut spec = SimulationSpec::cwru_like(Some(fault), RPM, duration_s, seed);
+    // The clean base: what the twin's base model can represent exactly.
+    spec.jitter = 0.0;
+    spec.modulation_depth = 0.0;
+    spec.unbalance_n = 0.0;
+    spec.pulse_rate_hz = 0.0;
+    spec.params.stiffness_nl_radial = 0.0;
+    spec.params.stiffness_nl_angular = 0.0;
+    spec.angular_share = 0.0;
+    spec.fs_hz = FS_HZ;
+    spec.sensors = vec![SensorSpec {
+        name: "DE".into(),
+        transfer: SensorTransfer {
+            gain_radial: 1.0 / G,
+            gain_angular: 0.0,
+            delay_samples: 0,
+        },
+    }];
+    spec.extra = ExtraTerms::default();
+    match effect {
+        Injected::None => {}
+        Injected::ShaftHarmonics => {
+            spec.extra.shaft_harmonics = vec![(1, 400.0 * s), (2, 250.0 * s)];
+        }
+        Injected::LoadZoneModulation => spec.modulation_depth = 0.8 * s,
+        Injected::Slip => spec.jitter = 0.012 * s,
+        Injected::ExtraResonance => {
+            let w = 2.0 * std::f64::consts::PI * 1800.0;
+            spec.params.stiffness_angular = w * w;
+            spec.params.damping_angular = 2.0 * 0.03 * w;
+            spec.angular_share = 0.6 * s;
+            spec.sensors[0].transfer.gain_angular = 1.0 / G;
+        }
+        Injected::LineInterference => {
+            let a = 0.04 * s as f32;
+            spec.extra.output_lines = vec![(50.0, a), (150.0, 0.5 * a), (250.0, 0.3 * a)];
+        }
+        Injected::SpeedDrift => spec.extra.speed_drift_per_s = 0.01 * s,
+        Injected::NonlinearStiffness => {
+            // ≈ 12 % (realistic) / 4 % (weak) frequency rise at the impact response peak
+            // (≈ 0.1 µm): k_NL·x² = 0.16·s·k_r at x = 0.1 µm.
+            spec.params.stiffness_nl_radial = 0.16 * s * spec.params.stiffness_radial / 1e-14;
+        }
+        Injected::UnknownPeriodic => spec.extra.output_lines = vec![(437.3, 0.05 * s as f32)],
+    }
+    let rec = simulate(&spec)?;
+    Ok(rec
+        .channels
+        .into_iter()
+        .next()
+        .map(|c| c.samples)
+        .unwrap_or_default())
+}

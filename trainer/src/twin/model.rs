@@ -1,0 +1,463 @@
+//! The twin's parametric model: the core's 2-DOF bearing simulator (eqs. 16–22) with
+//! the eq. 18–20 excitation, plus the effects the loop may add. Every parameter lives
+//! in an unconstrained coordinate (log for positive quantities, logit for depths) so
+//! Gauss–Newton steps (eq. 10) can never produce an unphysical model.
+//!
+//! ```text
+//! base Θ:  f_n (k_r = m(2πf_n)²), ζ (c_r = 2ζm·2πf_n), A_impact, rate factor (slip of the
+//!          mean defect rate), background force σ_F, measurement noise σ_y
+//! y(t) = [ẍ_r(t) + ẍ_θ(t)] / g   (+ output-side terms)   → anti-alias, decimate to fs
+//! ```
+//!
+//! Effects, each a term the base model lacks (what it adds, and its parameters):
+//!
+//! | effect | term | parameters |
+//! |---|---|---|
+//! | `shaft_harmonics` | eq. 19 sinusoids at k·f_r in the force | ln A_k per order |
+//! | `load_zone_modulation` | impact amplitude × (1 − δ + δ(1 + cos 2πf_mod t)/2) | logit δ |
+//! | `slip` | random impact timing, σ = jitter·T | ln jitter |
+//! | `speed_drift` | rate × (1 + d·t) for impacts and shaft terms | d |
+//! | `extra_resonance` | the angular DOF as a second mode driven by the same force | ln f₂, ln ζ₂, ln share |
+//! | `nonlinear_stiffness` | k_NL = ρ·k_r / (1 µm)² (eq. 17) | ln ρ |
+//! | `line_interference` | output-side sinusoids at electrical lines | ln A per line |
+//! | `unexplained_periodic` | an output-side sinusoid at f | ln A |
+//! | `unexplained_band` | output-side band-limited noise (2nd-order resonator) at f, bandwidth B | ln level |
+
+use crate::sim::G;
+use pumptwin_core::bearing::{DefectFrequencies, DefectLocation};
+use pumptwin_core::excitation::{
+    CompositeExcitation, ImpactTrain, RandomExcitation, ShaftSinusoid, TimeGrid,
+};
+use pumptwin_core::fir::{decimated_len, design_lowpass, filter_decimate, BAND_LIMIT_HZ};
+use pumptwin_core::rng::Xoshiro128pp;
+use pumptwin_core::simulator::{Bearing2Dof, BearingParams, State};
+
+/// Warm-up simulated before each render and dropped, s.
+const WARMUP_S: f64 = 0.1;
+
+/// RK4 steps per output sample in the twin (96 kHz at 12 kHz): ω·h = 0.2 at 3 kHz.
+pub const OVERSAMPLE: usize = 8;
+/// Impact width σ, s (broadband to ≈ 8 kHz, beyond the band limit).
+pub const IMPACT_SIGMA_S: f64 = 2.0e-5;
+/// Reference displacement for the cubic stiffness parameter, m.
+const X_REF_M: f64 = 1.0e-6;
+
+/// An effect the loop can add to the model.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[serde(tag = "effect", rename_all = "snake_case")]
+pub enum Effect {
+    /// Force sinusoids at these shaft orders.
+    ShaftHarmonics {
+        /// Orders k of k·f_r.
+        orders: Vec<u32>,
+    },
+    /// Amplitude modulation of the impacts at `mod_hz`.
+    LoadZoneModulation {
+        /// Modulation frequency, Hz (shaft rate for inner race, cage rate for balls).
+        mod_hz: f64,
+    },
+    /// Random impact timing.
+    Slip,
+    /// Linear speed drift over the record.
+    SpeedDrift,
+    /// A second structural mode near `f_hz`.
+    ExtraResonance {
+        /// Initial natural frequency, Hz.
+        f_hz: f64,
+    },
+    /// Cubic (hardening) stiffness.
+    NonlinearStiffness,
+    /// Electrical lines at these frequencies (output side).
+    LineInterference {
+        /// Line frequencies, Hz.
+        freqs: Vec<f64>,
+    },
+    /// An output-side sinusoid nobody declared.
+    UnexplainedPeriodic {
+        /// Frequency, Hz.
+        f_hz: f64,
+        /// `f_hz / f_r`.
+        order: f64,
+    },
+    /// Output-side band noise nobody declared.
+    UnexplainedBand {
+        /// Centre, Hz.
+        f_hz: f64,
+        /// −3 dB bandwidth, Hz.
+        bandwidth_hz: f64,
+    },
+}
+
+impl Effect {
+    /// The effect's name in reports.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Effect::ShaftHarmonics { .. } => "shaft_harmonics",
+            Effect::LoadZoneModulation { .. } => "load_zone_modulation",
+            Effect::Slip => "slip",
+            Effect::SpeedDrift => "speed_drift",
+            Effect::ExtraResonance { .. } => "extra_resonance",
+            Effect::NonlinearStiffness => "nonlinear_stiffness",
+            Effect::LineInterference { .. } => "line_interference",
+            Effect::UnexplainedPeriodic { .. } => "unexplained_periodic",
+            Effect::UnexplainedBand { .. } => "unexplained_band",
+        }
+    }
+
+    /// Names and initial unconstrained values of the parameters it adds.
+    fn initial(&self, base_amp: f64, noise: f64) -> Vec<(String, f64)> {
+        match self {
+            Effect::ShaftHarmonics { orders } => orders
+                .iter()
+                .map(|k| (format!("ln_shaft_amp_{k}x"), (0.5 * base_amp).ln()))
+                .collect(),
+            Effect::LoadZoneModulation { .. } => vec![("logit_modulation_depth".into(), 0.0)],
+            Effect::Slip => vec![("ln_jitter".into(), (0.005f64).ln())],
+            Effect::SpeedDrift => vec![("drift_per_s".into(), 0.0)],
+            Effect::ExtraResonance { f_hz } => vec![
+                ("ln_fn2_hz".into(), f_hz.ln()),
+                ("ln_zeta2".into(), (0.03f64).ln()),
+                ("ln_share2".into(), (0.5f64).ln()),
+            ],
+            Effect::NonlinearStiffness => vec![("ln_knl_rel".into(), (0.01f64).ln())],
+            Effect::LineInterference { freqs } => freqs
+                .iter()
+                .map(|f| (format!("ln_line_amp_{f:.1}hz"), (3.0 * noise).ln()))
+                .collect(),
+            Effect::UnexplainedPeriodic { .. } => {
+                vec![("ln_periodic_amp".into(), (3.0 * noise).ln())]
+            }
+            Effect::UnexplainedBand { .. } => vec![("ln_band_level".into(), noise.ln())],
+        }
+    }
+}
+
+/// A named unconstrained parameter.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Param {
+    /// Name (`ln_…` log, `logit_…` logit, else linear).
+    pub name: String,
+    /// Unconstrained value.
+    pub value: f64,
+    /// Finite-difference step for the Jacobian.
+    #[serde(skip)]
+    pub step: f64,
+}
+
+/// What the model is told: only what a user knows.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OperatingPoint {
+    /// Sampling rate of the record, Hz.
+    pub fs_hz: f32,
+    /// Kinematic frequencies at the nominal speed.
+    pub freqs: DefectFrequencies,
+}
+
+/// The parametric twin.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TwinModel {
+    /// Operating point.
+    pub op: OperatingPoint,
+    /// Fault hypothesis (`None`: healthy).
+    pub fault: Option<DefectLocation>,
+    /// Base parameters then effect parameters, in order.
+    pub params: Vec<Param>,
+    /// Effects, in the order they were added, with the index of their first parameter.
+    pub effects: Vec<(Effect, usize)>,
+}
+
+fn p(name: &str, value: f64, step: f64) -> Param {
+    Param {
+        name: name.into(),
+        value,
+        step,
+    }
+}
+
+impl TwinModel {
+    /// The base model for a fault hypothesis with initial values.
+    pub fn base(
+        op: OperatingPoint,
+        fault: Option<DefectLocation>,
+        fn_hz: f64,
+        zeta: f64,
+        amp: f64,
+        noise: f64,
+    ) -> Self {
+        let mut params = vec![
+            p("ln_fn_hz", fn_hz.ln(), 1e-3),
+            p("ln_zeta", zeta.ln(), 1e-2),
+        ];
+        if fault.is_some() {
+            params.push(p("ln_impact_amp", amp.ln(), 1e-2));
+            params.push(p("rate_factor", 0.0, 2e-4));
+        }
+        params.push(p("ln_background", (0.05 * amp).ln(), 1e-2));
+        params.push(p("ln_meas_noise", noise.ln(), 1e-2));
+        Self {
+            op,
+            fault,
+            params,
+            effects: Vec::new(),
+        }
+    }
+
+    /// This model with `effect` added (initial values scaled to the current fit).
+    pub fn with_effect(&self, effect: Effect) -> Self {
+        let mut m = self.clone();
+        let amp = self
+            .get("ln_impact_amp")
+            .or(self.get("ln_background"))
+            .map_or(1.0, f64::exp);
+        let noise = self.get("ln_meas_noise").map_or(0.01, f64::exp);
+        let first = m.params.len();
+        for (name, value) in effect.initial(amp, noise) {
+            let step = if name.starts_with("ln_") || name.starts_with("logit_") {
+                1e-2
+            } else {
+                1e-4
+            };
+            m.params.push(Param { name, value, step });
+        }
+        m.effects.push((effect, first));
+        m
+    }
+
+    /// The value of a parameter by name.
+    pub fn get(&self, name: &str) -> Option<f64> {
+        self.params.iter().find(|p| p.name == name).map(|p| p.value)
+    }
+
+    /// Unconstrained parameter vector.
+    pub fn theta(&self) -> Vec<f64> {
+        self.params.iter().map(|p| p.value).collect()
+    }
+
+    /// A copy with the parameter vector replaced.
+    pub fn with_theta(&self, theta: &[f64]) -> Self {
+        let mut m = self.clone();
+        for (p, &v) in m.params.iter_mut().zip(theta) {
+            p.value = v;
+        }
+        m
+    }
+
+    /// Physical values of all parameters, for reports.
+    pub fn physical(&self) -> serde_json::Map<String, serde_json::Value> {
+        let mut out = serde_json::Map::new();
+        for p in &self.params {
+            let (name, v) = if let Some(n) = p.name.strip_prefix("ln_") {
+                (n.to_string(), p.value.exp())
+            } else if let Some(n) = p.name.strip_prefix("logit_") {
+                (n.to_string(), 1.0 / (1.0 + (-p.value).exp()))
+            } else {
+                (p.name.clone(), p.value)
+            };
+            out.insert(name, serde_json::json!(v));
+        }
+        let fn_hz = self.get("ln_fn_hz").map_or(0.0, f64::exp);
+        let w = 2.0 * std::f64::consts::PI * fn_hz;
+        out.insert("stiffness_radial_n_per_m".into(), serde_json::json!(w * w));
+        let zeta = self.get("ln_zeta").map_or(0.0, f64::exp);
+        out.insert(
+            "damping_radial_ns_per_m".into(),
+            serde_json::json!(2.0 * zeta * w),
+        );
+        out
+    }
+
+    fn effect_params(&self, kind: &str) -> Option<(&Effect, &[Param])> {
+        self.effects
+            .iter()
+            .enumerate()
+            .find(|(_, (e, _))| e.name() == kind)
+            .map(|(i, (e, first))| {
+                let end = self
+                    .effects
+                    .get(i + 1)
+                    .map_or(self.params.len(), |(_, f)| *f);
+                (e, &self.params[*first..end])
+            })
+    }
+
+    /// Simulate `n_out` samples at the record's rate with PRNG `seed`.
+    pub fn render(&self, n_keep: usize, seed: u64) -> Result<Vec<f32>, pumptwin_core::Error> {
+        let fs = f64::from(self.op.fs_hz);
+        // Warm-up simulated and dropped (no switch-on transient), as in `crate::sim`.
+        let n_warm = (WARMUP_S * fs) as usize;
+        let n_out = n_keep + n_warm;
+        let fs_sim = fs * OVERSAMPLE as f64;
+        let h = 1.0 / fs_sim;
+        let n_sim = n_out * OVERSAMPLE;
+        let shaft = f64::from(self.op.freqs.shaft);
+        let get = |n: &str| self.get(n);
+        let fn_hz = get("ln_fn_hz").map_or(3000.0, f64::exp);
+        let zeta = get("ln_zeta").map_or(0.05, f64::exp);
+        let drift = self
+            .effect_params("speed_drift")
+            .map_or(0.0, |(_, p)| p[0].value.clamp(-0.2, 0.2));
+        let mut rng = Xoshiro128pp::seed_from_u64(seed);
+
+        let (rate, mod_default) = match self.fault {
+            Some(loc) => (
+                f64::from(self.op.freqs.impact_rate(loc)),
+                f64::from(self.op.freqs.modulation_rate(loc)),
+            ),
+            None => (1.0, 0.0),
+        };
+        let rate = rate * (1.0 + get("rate_factor").unwrap_or(0.0).clamp(-0.1, 0.1));
+        let (depth, mod_hz) = match self.effect_params("load_zone_modulation") {
+            Some((Effect::LoadZoneModulation { mod_hz }, p)) => {
+                (1.0 / (1.0 + (-p[0].value).exp()), *mod_hz)
+            }
+            _ => (0.0, mod_default),
+        };
+        let jitter = self
+            .effect_params("slip")
+            .map_or(0.0, |(_, p)| p[0].value.exp().min(0.2));
+        let ex = CompositeExcitation {
+            impact: ImpactTrain {
+                amplitude: get("ln_impact_amp").map_or(0.0, f64::exp),
+                rate_hz: rate,
+                sigma_s: IMPACT_SIGMA_S,
+                first_impact_s: 0.37 / rate,
+                modulation_depth: depth,
+                modulation_hz: mod_hz,
+                jitter,
+                rate_drift_per_s: drift,
+            },
+            sinusoid: ShaftSinusoid {
+                amplitude: 0.0,
+                shaft_hz: shaft,
+                phase_rad: 0.0,
+                drift_per_s: drift,
+            },
+            random: RandomExcitation {
+                // Per half-step sample; scaled so the level does not depend on the step.
+                noise_std: get("ln_background").map_or(0.0, f64::exp) * (OVERSAMPLE as f64).sqrt(),
+                pulse_rate_hz: 0.0,
+                pulse_amplitude: 0.0,
+                pulse_sigma_s: IMPACT_SIGMA_S,
+            },
+            w_impact: if self.fault.is_some() { 1.0 } else { 0.0 },
+            w_sin: 0.0,
+            w_rand: 1.0,
+            angular_share: 0.0,
+        };
+        let grid = TimeGrid {
+            t0: 0.0,
+            dt: 0.5 * h,
+        };
+        let mut force_r = vec![0.0f64; 2 * n_sim + 1];
+        let mut force_t = vec![0.0f64; 2 * n_sim + 1];
+        ex.render(grid, &mut force_r, &mut force_t, &mut rng)?;
+        if let Some((Effect::ShaftHarmonics { orders }, p)) = self.effect_params("shaft_harmonics")
+        {
+            for (k, param) in orders.iter().zip(p) {
+                let s = ShaftSinusoid {
+                    amplitude: param.value.exp(),
+                    shaft_hz: shaft * f64::from(*k),
+                    phase_rad: 0.3 * f64::from(*k),
+                    drift_per_s: drift,
+                };
+                s.add_to(grid, 1.0, &mut force_r)?;
+            }
+        }
+        let mut params = BearingParams::from_modal(1.0, fn_hz, zeta, 1000.0, 0.05, 0.0, 0.0)?;
+        if let Some((_, p)) = self.effect_params("extra_resonance") {
+            let (f2, z2, share) = (p[0].value.exp(), p[1].value.exp(), p[2].value.exp());
+            let w2 = 2.0 * std::f64::consts::PI * f2;
+            params.stiffness_angular = w2 * w2;
+            params.damping_angular = 2.0 * z2 * w2;
+            for (t, r) in force_t.iter_mut().zip(&force_r) {
+                *t = share * r;
+            }
+        }
+        if let Some((_, p)) = self.effect_params("nonlinear_stiffness") {
+            params.stiffness_nl_radial =
+                p[0].value.exp() * params.stiffness_radial / (X_REF_M * X_REF_M);
+        }
+        let model = Bearing2Dof::<f64>::new(&params)?;
+        let mut acc_r = vec![0.0f64; n_sim];
+        let mut acc_t = vec![0.0f64; n_sim];
+        model.simulate(State::REST, h, &force_r, &force_t, &mut acc_r, &mut acc_t)?;
+        let y_sim: Vec<f32> = acc_r
+            .iter()
+            .zip(&acc_t)
+            .map(|(a, b)| ((a + b) / f64::from(G)) as f32)
+            .collect();
+        let mut taps = vec![0.0f32; 40 * OVERSAMPLE + 1];
+        design_lowpass(
+            BAND_LIMIT_HZ.min(0.45 * self.op.fs_hz),
+            fs_sim as f32,
+            &mut taps,
+        )?;
+        let mut y = vec![0.0f32; decimated_len(n_sim, OVERSAMPLE)];
+        filter_decimate(&y_sim, &taps, OVERSAMPLE, &mut y)?;
+        y.truncate(n_out);
+        y.drain(..n_warm);
+
+        // Output-side terms.
+        let mut add_sine = |f: f64, amp: f64, phase: f64| {
+            for (j, v) in y.iter_mut().enumerate() {
+                let t = j as f64 / fs;
+                *v += (amp
+                    * (2.0 * std::f64::consts::PI * f * (t + 0.5 * drift * t * t) + phase).sin())
+                    as f32;
+            }
+        };
+        if let Some((Effect::LineInterference { freqs }, p)) =
+            self.effect_params("line_interference")
+        {
+            for (f, param) in freqs.iter().zip(p) {
+                add_sine(*f, param.value.exp(), 0.1 * f);
+            }
+        }
+        if let Some((Effect::UnexplainedPeriodic { f_hz, .. }, p)) =
+            self.effect_params("unexplained_periodic")
+        {
+            add_sine(*f_hz, p[0].value.exp(), 0.7);
+        }
+        if let Some((Effect::UnexplainedBand { f_hz, bandwidth_hz }, p)) =
+            self.effect_params("unexplained_band")
+        {
+            add_band_noise(&mut y, fs, *f_hz, *bandwidth_hz, p[0].value.exp(), &mut rng);
+        }
+        let noise = get("ln_meas_noise").map_or(0.0, f64::exp);
+        for v in y.iter_mut() {
+            *v += (noise * rng.normal()) as f32;
+        }
+        Ok(y)
+    }
+}
+
+/// Add white noise passed through a 2nd-order resonator (centre `f`, −3 dB bandwidth
+/// `bw`), scaled to RMS `level`.
+fn add_band_noise(y: &mut [f32], fs: f64, f: f64, bw: f64, level: f64, rng: &mut Xoshiro128pp) {
+    let r = (-std::f64::consts::PI * bw.max(1.0) / fs).exp();
+    let c = 2.0 * r * (2.0 * std::f64::consts::PI * f / fs).cos();
+    let (mut y1, mut y2) = (0.0f64, 0.0f64);
+    let mut band = Vec::with_capacity(y.len());
+    for _ in 0..y.len() {
+        let v = rng.normal() + c * y1 - r * r * y2;
+        y2 = y1;
+        y1 = v;
+        band.push(v);
+    }
+    let rms = (band.iter().map(|v| v * v).sum::<f64>() / band.len().max(1) as f64)
+        .sqrt()
+        .max(1e-30);
+    for (o, b) in y.iter_mut().zip(&band) {
+        *o += (level * b / rms) as f32;
+    }
+}
+
+/// Which defect the frequencies point at, by name (`outer_race` …) for reports.
+pub fn fault_name(fault: Option<DefectLocation>) -> &'static str {
+    match fault {
+        None => "none",
+        Some(DefectLocation::OuterRace) => "outer_race",
+        Some(DefectLocation::InnerRace) => "inner_race",
+        Some(DefectLocation::Ball) => "ball",
+    }
+}

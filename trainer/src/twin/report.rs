@@ -1,0 +1,91 @@
+//! Writing a loop's results: `report.json` and the before/after plots.
+
+use super::closed_loop::{envelope_pairs, psd_pairs, LoopArtifacts, LoopReport};
+use crate::plot::{line_plot, PlotSpec, Series};
+use std::path::Path;
+
+/// Write `dir/report.json`, `psd_before.png`, `psd_after.png`, `envelope_before.png`,
+/// `envelope_after.png` and `residual.png`.
+pub fn write(
+    dir: &Path,
+    report: &LoopReport,
+    a: &LoopArtifacts,
+    markers: &[(f32, String)],
+) -> anyhow::Result<()> {
+    std::fs::create_dir_all(dir)?;
+    std::fs::write(
+        dir.join("report.json"),
+        serde_json::to_string_pretty(report)? + "\n",
+    )?;
+    for (name, sig, when) in [
+        ("before", &a.initial, "first fit"),
+        ("after", &a.final_, "final model"),
+    ] {
+        let pairs = psd_pairs(a, sig);
+        let series = vec![
+            Series {
+                label: "measured".into(),
+                points: pairs.iter().map(|p| (p.0, p.1)).collect(),
+            },
+            Series {
+                label: format!("model ({when})"),
+                points: pairs.iter().map(|p| (p.0, p.2)).collect(),
+            },
+        ];
+        let title = format!("power spectrum, measured vs model ({when})");
+        line_plot(
+            &dir.join(format!("psd_{name}.png")),
+            &PlotSpec {
+                title: &title,
+                x_label: "frequency [Hz]",
+                y_label: "PSD [dB]",
+                y_db: false,
+                markers: &[],
+            },
+            &series,
+        )?;
+        let pairs = envelope_pairs(a, sig);
+        let series = vec![
+            Series {
+                label: "measured".into(),
+                points: pairs.iter().map(|p| (p.0, p.1)).collect(),
+            },
+            Series {
+                label: format!("model ({when})"),
+                points: pairs.iter().map(|p| (p.0, p.2)).collect(),
+            },
+        ];
+        let title = format!("envelope spectrum, measured vs model ({when})");
+        line_plot(
+            &dir.join(format!("envelope_{name}.png")),
+            &PlotSpec {
+                title: &title,
+                x_label: "frequency [Hz]",
+                y_label: "envelope power",
+                y_db: false,
+                markers,
+            },
+            &series,
+        )?;
+    }
+    let series = vec![Series {
+        label: "measured − final model".into(),
+        points: a.residual.psd_residual.clone(),
+    }];
+    let floor = format!(
+        "residual (threshold {:.1} dB over the median)",
+        a.residual.psd_threshold_db
+    );
+    line_plot(
+        &dir.join("residual.png"),
+        &PlotSpec {
+            title: &floor,
+            x_label: "frequency [Hz]",
+            y_label: "dB",
+            y_db: false,
+            markers: &[],
+        },
+        &series,
+    )?;
+    Ok(())
+}
