@@ -35,8 +35,10 @@ use pumptwin_core::simulator::{Bearing2Dof, BearingParams, State};
 /// Warm-up simulated before each render and dropped, s.
 const WARMUP_S: f64 = 0.1;
 
-/// RK4 steps per output sample in the twin (96 kHz at 12 kHz): ω·h = 0.2 at 3 kHz.
-pub const OVERSAMPLE: usize = 8;
+/// RK4 steps per output sample in the twin (48 kHz at 12 kHz): ω·h = 0.39 at 3 kHz,
+/// where RK4 is within 0.3 % of the exact response (`benches/rk4_reference.py
+/// --convergence`), 0.01 dB in a spectrum: ample for fitting, at half the cost of 96 kHz.
+pub const OVERSAMPLE: usize = 4;
 /// Impact width σ, s (broadband to ≈ 8 kHz, beyond the band limit).
 pub const IMPACT_SIGMA_S: f64 = 2.0e-5;
 /// Reference displacement for the cubic stiffness parameter, m.
@@ -59,14 +61,20 @@ pub enum Effect {
     /// Random impact timing.
     Slip,
     /// Linear speed drift over the record.
-    SpeedDrift,
+    SpeedDrift {
+        /// Starting value of the drift (fraction per second), from the evidence.
+        initial_per_s: f64,
+    },
     /// A second structural mode near `f_hz`.
     ExtraResonance {
         /// Initial natural frequency, Hz.
         f_hz: f64,
     },
     /// Cubic (hardening) stiffness.
-    NonlinearStiffness,
+    NonlinearStiffness {
+        /// Measured excess of the ring-down start frequency over its end (fraction).
+        initial_rel_shift: f64,
+    },
     /// Electrical lines at these frequencies (output side).
     LineInterference {
         /// Line frequencies, Hz.
@@ -95,9 +103,9 @@ impl Effect {
             Effect::ShaftHarmonics { .. } => "shaft_harmonics",
             Effect::LoadZoneModulation { .. } => "load_zone_modulation",
             Effect::Slip => "slip",
-            Effect::SpeedDrift => "speed_drift",
+            Effect::SpeedDrift { .. } => "speed_drift",
             Effect::ExtraResonance { .. } => "extra_resonance",
-            Effect::NonlinearStiffness => "nonlinear_stiffness",
+            Effect::NonlinearStiffness { .. } => "nonlinear_stiffness",
             Effect::LineInterference { .. } => "line_interference",
             Effect::UnexplainedPeriodic { .. } => "unexplained_periodic",
             Effect::UnexplainedBand { .. } => "unexplained_band",
@@ -105,28 +113,47 @@ impl Effect {
     }
 
     /// Names and initial unconstrained values of the parameters it adds.
-    fn initial(&self, base_amp: f64, noise: f64) -> Vec<(String, f64)> {
+    /// Names and initial unconstrained values of the parameters it adds. `line_amp(f)`
+    /// is the amplitude (output units) of the measured excess at `f`, `force_gain(f)` the
+    /// model's output amplitude per newton of force at `f`.
+    fn initial(
+        &self,
+        noise: f64,
+        line_amp: &dyn Fn(f64) -> Option<f64>,
+        force_gain: &dyn Fn(f64) -> f64,
+        shaft: f64,
+        peak_displacement: f64,
+    ) -> Vec<(String, f64)> {
+        let amp_or = |f: f64| line_amp(f).unwrap_or(3.0 * noise).max(1e-9).ln();
         match self {
             Effect::ShaftHarmonics { orders } => orders
                 .iter()
-                .map(|k| (format!("ln_shaft_amp_{k}x"), (0.5 * base_amp).ln()))
+                .map(|k| {
+                    let f = shaft * f64::from(*k);
+                    let amp = line_amp(f).map_or(1.0, |a| a / force_gain(f).max(1e-30));
+                    (format!("ln_shaft_amp_{k}x"), amp.max(1e-6).ln())
+                })
                 .collect(),
             Effect::LoadZoneModulation { .. } => vec![("logit_modulation_depth".into(), 0.0)],
             Effect::Slip => vec![("ln_jitter".into(), (0.005f64).ln())],
-            Effect::SpeedDrift => vec![("drift_per_s".into(), 0.0)],
+            Effect::SpeedDrift { initial_per_s } => vec![("drift_per_s".into(), *initial_per_s)],
             Effect::ExtraResonance { f_hz } => vec![
                 ("ln_fn2_hz".into(), f_hz.ln()),
                 ("ln_zeta2".into(), (0.03f64).ln()),
                 ("ln_share2".into(), (0.5f64).ln()),
             ],
-            Effect::NonlinearStiffness => vec![("ln_knl_rel".into(), (0.01f64).ln())],
-            Effect::LineInterference { freqs } => freqs
-                .iter()
-                .map(|f| (format!("ln_line_amp_{f:.1}hz"), (3.0 * noise).ln()))
-                .collect(),
-            Effect::UnexplainedPeriodic { .. } => {
-                vec![("ln_periodic_amp".into(), (3.0 * noise).ln())]
+            Effect::NonlinearStiffness { initial_rel_shift } => {
+                // Duffing: Δf/f ≈ (3/8)·k_NL·A²/k_r at amplitude A; the early ring-down
+                // window averages over the decay, so the peak shift is about twice the
+                // measured one. ρ = k_NL·x_ref²/k_r.
+                let a = peak_displacement.max(1e-12);
+                let rho = (8.0 / 3.0) * 2.0 * initial_rel_shift.max(1e-4) * (X_REF_M / a).powi(2);
+                vec![("ln_knl_rel".into(), rho.ln())]
             }
+            Effect::LineInterference { freqs } => {
+                freqs.iter().map(|f| (format!("ln_line_amp_{f:.1}hz"), amp_or(*f))).collect()
+            }
+            Effect::UnexplainedPeriodic { f_hz, .. } => vec![("ln_periodic_amp".into(), amp_or(*f_hz))],
             Effect::UnexplainedBand { .. } => vec![("ln_band_level".into(), noise.ln())],
         }
     }
@@ -202,21 +229,28 @@ impl TwinModel {
         }
     }
 
-    /// This model with `effect` added (initial values scaled to the current fit).
-    pub fn with_effect(&self, effect: Effect) -> Self {
+    /// This model with `effect` added. `line_amp(f)` gives the amplitude of the
+    /// measured excess at `f` (output units) to start line-like terms where the data
+    /// puts them; other parameters start from physical defaults.
+    pub fn with_effect(&self, effect: Effect, line_amp: &dyn Fn(f64) -> Option<f64>) -> Self {
         let mut m = self.clone();
-        let amp = self
-            .get("ln_impact_amp")
-            .or(self.get("ln_background"))
-            .map_or(1.0, f64::exp);
         let noise = self.get("ln_meas_noise").map_or(0.01, f64::exp);
+        let fn_hz = self.get("ln_fn_hz").map_or(3000.0, f64::exp);
+        let zeta = self.get("ln_zeta").map_or(0.05, f64::exp);
+        // Acceleration per newton of a unit-mass mode, in g: ω² / |ω_n² − ω² + 2iζω_nω| / g.
+        let force_gain = |f: f64| {
+            let (w, wn) = (2.0 * std::f64::consts::PI * f, 2.0 * std::f64::consts::PI * fn_hz);
+            let re = wn * wn - w * w;
+            let im = 2.0 * zeta * wn * w;
+            w * w / (re * re + im * im).sqrt() / f64::from(G)
+        };
         let first = m.params.len();
-        for (name, value) in effect.initial(amp, noise) {
-            let step = if name.starts_with("ln_") || name.starts_with("logit_") {
-                1e-2
-            } else {
-                1e-4
-            };
+        let shaft = f64::from(self.op.freqs.shaft);
+        // Peak displacement of an impact ring-down: impulse A·σ·√(2π) / (m·ω_n).
+        let amp = self.get("ln_impact_amp").map_or(0.0, f64::exp);
+        let peak = amp * IMPACT_SIGMA_S * (2.0 * std::f64::consts::PI).sqrt() / (2.0 * std::f64::consts::PI * fn_hz);
+        for (name, value) in effect.initial(noise, line_amp, &force_gain, shaft, peak) {
+            let step = if name.starts_with("ln_") || name.starts_with("logit_") { 1e-2 } else { 1e-4 };
             m.params.push(Param { name, value, step });
         }
         m.effects.push((effect, first));

@@ -55,6 +55,76 @@ pub struct Candidate {
     pub evidence: Evidence,
     /// Ordering key (dB-ish).
     pub strength: f32,
+    /// How to tell, after a refit, whether the effect explains its evidence.
+    pub check: Check,
+}
+
+/// The statistic behind a candidate's evidence, re-measured after the refit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Check {
+    /// The evidence's residual components (dB excess at their frequencies).
+    Lines,
+    /// Loss of defect-comb contrast at high orders relative to the model, dB.
+    CombContrast {
+        /// Comb spacing, Hz.
+        rate: f64,
+    },
+    /// Ring-down early/late frequency ratio excess over the model.
+    Ringdown {
+        /// Band, Hz.
+        lo: f32,
+        /// Band, Hz.
+        hi: f32,
+        /// Impact rate, Hz.
+        rate: f32,
+    },
+}
+
+/// How far the model is from explaining a candidate's evidence: larger is worse, 0 or
+/// below is explained. `x`/`sim` are the measured and simulated signals, the dB spectra
+/// at residual resolution (same reference).
+pub fn evidence_gap(
+    check: &Check,
+    components: &[Component],
+    x: &[f32],
+    sim: &[f32],
+    meas_psd_db: &[f32],
+    sim_psd_db: &[f32],
+    meas_env_db: &[f32],
+    sim_env_db: &[f32],
+    cfg: &SignatureConfig,
+) -> f32 {
+    match *check {
+        Check::Lines => {
+            let mut total = 0.0;
+            for c in components {
+                let (m, s, n) = if c.domain == "psd" { (meas_psd_db, sim_psd_db, cfg.psd_n) } else { (meas_env_db, sim_env_db, cfg.env_n) };
+                let k = (c.f_hz * n as f64 / f64::from(cfg.fs_hz)).round() as usize;
+                let lo = k.saturating_sub(1);
+                let hi = (k + 1).min(m.len() - 1);
+                total += (lo..=hi).map(|i| m[i] - s[i]).fold(f32::NEG_INFINITY, f32::max);
+            }
+            total / components.len().max(1) as f32
+        }
+        Check::CombContrast { rate } => {
+            let cm = comb_contrast(meas_psd_db, cfg, rate);
+            let cs = comb_contrast(sim_psd_db, cfg, rate);
+            let n = cm.len().min(cs.len());
+            if n < 9 {
+                return 0.0;
+            }
+            let delta: Vec<f32> = cm.iter().zip(&cs).map(|(a, b)| a - b).collect();
+            let low = delta[..3].iter().sum::<f32>() / 3.0;
+            let high = delta[n - n / 3..n].iter().sum::<f32>() / (n / 3) as f32;
+            (low - high).abs()
+        }
+        Check::Ringdown { lo, hi, rate } => {
+            match (ringdown_frequencies(x, cfg.fs_hz, lo, hi, rate), ringdown_frequencies(sim, cfg.fs_hz, lo, hi, rate)) {
+                (Some((a, b)), Some((c, d))) => 100.0 * ((a / b - 1.0) - (c / d - 1.0)),
+                _ => 0.0,
+            }
+        }
+    }
 }
 
 fn median(v: &mut [f32]) -> f32 {
@@ -129,29 +199,105 @@ pub struct ResidualAnalysis {
 }
 
 /// Residual of the fitted model against the measurement at line resolution.
-pub fn analyse(
-    meas: &Signature,
-    sim: &Signature,
-    cfg: &SignatureConfig,
-    shaft_hz: f64,
-) -> ResidualAnalysis {
+///
+/// Lines come from the raw dB residual; bands from the residual smoothed over 200 Hz,
+/// because a periodic impact train turns every band into a comb of lines whose
+/// valleys would otherwise split it.
+pub fn analyse(meas: &Signature, sim: &Signature, cfg: &SignatureConfig, shaft_hz: f64) -> ResidualAnalysis {
     let m = to_db(&meas.psd, &meas.psd);
     let s = to_db(&sim.psd, &meas.psd);
     let d: Vec<f32> = m.iter().zip(&s).map(|(a, b)| a - b).collect();
     let df = f64::from(cfg.fs_hz) / cfg.psd_n as f64;
-    let (psd, thr) = significant_components(&d, cfg.psd_bins(), df, shaft_hz, "psd");
+    let (raw, thr) = significant_components(&d, cfg.psd_bins(), df, shaft_hz, "psd");
+    let mut psd: Vec<Component> = raw.into_iter().filter(|c| c.kind == "line").collect();
+    let half = ((100.0 / df).ceil() as usize).max(2);
+    let bins = cfg.psd_bins();
+    let smooth: Vec<f32> = (0..d.len())
+        .map(|k| {
+            let a = k.saturating_sub(half).max(*bins.start());
+            let b = (k + half).min(*bins.end());
+            if a > b {
+                return 0.0;
+            }
+            d[a..=b].iter().sum::<f32>() / (b - a + 1) as f32
+        })
+        .collect();
+    let (bands, _) = significant_bands(&smooth, bins, df, shaft_hz);
+    psd.extend(bands);
     let me = to_db(&meas.env, &meas.env);
     let se = to_db(&sim.env, &meas.env);
     let de: Vec<f32> = me.iter().zip(&se).map(|(a, b)| a - b).collect();
     let dfe = f64::from(cfg.fs_hz) / cfg.env_n as f64;
     let (envelope, _) = significant_components(&de, cfg.env_bins(), dfe, shaft_hz, "envelope");
+    let envelope = envelope.into_iter().filter(|c| c.kind == "line").collect();
     let psd_residual = cfg.psd_bins().map(|k| (cfg.psd_freq(k), d[k])).collect();
-    ResidualAnalysis {
-        psd,
-        envelope,
-        psd_threshold_db: thr,
-        psd_residual,
+    ResidualAnalysis { psd, envelope, psd_threshold_db: thr, psd_residual }
+}
+
+/// Bands of the smoothed residual: runs at least 100 Hz wide above
+/// `median + max(3 dB, 4·MAD)`.
+fn significant_bands(
+    d: &[f32],
+    bins: std::ops::RangeInclusive<usize>,
+    df: f64,
+    shaft_hz: f64,
+) -> (Vec<Component>, f32) {
+    let mut vals: Vec<f32> = bins.clone().map(|k| d[k]).collect();
+    let med = median(&mut vals);
+    let mut dev: Vec<f32> = bins.clone().map(|k| (d[k] - med).abs()).collect();
+    let mad = 1.4826 * median(&mut dev);
+    let thr = med + 3.0f32.max(MAD_K * mad);
+    let mut out = Vec::new();
+    let (lo, hi) = (*bins.start(), *bins.end());
+    let mut k = lo;
+    while k <= hi {
+        if d[k] <= thr {
+            k += 1;
+            continue;
+        }
+        let start = k;
+        while k <= hi && d[k] > thr {
+            k += 1;
+        }
+        let end = k - 1;
+        let width = (end - start + 1) as f64 * df;
+        if width >= 100.0 {
+            let peak = (start..=end).max_by(|&a, &b| d[a].total_cmp(&d[b])).unwrap_or(start);
+            let f = peak as f64 * df;
+            out.push(Component {
+                domain: "psd",
+                kind: "band",
+                f_hz: f,
+                width_hz: width,
+                excess_db: d[peak] - med,
+                order: f / shaft_hz,
+            });
+        }
     }
+    (out, thr - med)
+}
+
+/// Contrast (dB) of each defect-comb tooth `k·rate` over the PSD midway between teeth,
+/// for `k = 1..` up to the compared band: a periodic impact train has sharp teeth at
+/// every order; timing jitter (slip) or a drifting speed washes out the high orders.
+pub fn comb_contrast(psd_db: &[f32], cfg: &SignatureConfig, rate_hz: f64) -> Vec<f32> {
+    let df = f64::from(cfg.fs_hz) / cfg.psd_n as f64;
+    let top = f64::from(cfg.psd_hi_hz);
+    let at = |f: f64, spread: usize| -> f32 {
+        let k = (f / df).round() as usize;
+        let lo = k.saturating_sub(spread);
+        let hi = (k + spread).min(psd_db.len() - 1);
+        psd_db[lo..=hi].iter().cloned().fold(f32::NEG_INFINITY, f32::max)
+    };
+    let mut out = Vec::new();
+    let mut k = 1.0;
+    while (k + 0.5) * rate_hz < top {
+        let tooth = at(k * rate_hz, 1);
+        let valley = 0.5 * (at((k - 0.5) * rate_hz, 0) + at((k + 0.5) * rate_hz, 0));
+        out.push(tooth - valley);
+        k += 1.0;
+    }
+    out
 }
 
 /// Envelope spectrum of `x` restricted to the band `[lo, hi]` (FFT-domain band-pass),
@@ -224,37 +370,24 @@ fn envelope_line(x: &[f32], fs: f32, band: EnvelopeBand, f: f32, n: usize) -> Op
     peak_frequency(&one_sided, fs, f - tol, f + tol).ok()
 }
 
-/// RMS width (Hz) of the envelope line around `f` within ±4 %: smearing measure.
-fn line_width(spec: &[f32], df: f32, f: f32) -> f32 {
-    let lo = (((0.96 * f) / df) as usize).max(1);
-    let hi = (((1.04 * f) / df) as usize + 1).min(spec.len() - 1);
-    let peak = spec[lo..=hi].iter().cloned().fold(0.0f32, f32::max);
-    // Power above a quarter of the peak, its spread about the peak.
-    let (mut w, mut m1, mut m2) = (0.0f32, 0.0f32, 0.0f32);
-    for (k, &p) in spec.iter().enumerate().take(hi + 1).skip(lo) {
-        if p >= 0.25 * peak {
-            let fk = k as f32 * df;
-            w += p;
-            m1 += p * fk;
-            m2 += p * fk * fk;
-        }
-    }
-    if w <= 0.0 {
-        return 0.0;
-    }
-    let mean = m1 / w;
-    (m2 / w - mean * mean).max(0.0).sqrt()
-}
 
-/// Mean instantaneous frequency of the band `[lo, hi]` at high vs mid envelope
-/// amplitude: `(f_high, f_mid)`. A hardening stiffness raises `f_high` above `f_mid`.
-pub fn amplitude_frequency_dependence(x: &[f32], fs: f32, lo: f32, hi: f32) -> Option<(f32, f32)> {
+/// Ring-down frequency right after each impact vs later in the same ring-down:
+/// `(f_early, f_late)` in Hz, from the unwrapped phase of the band-passed analytic
+/// signal `[lo, hi]`. A hardening stiffness makes the large-amplitude start of each
+/// ring-down faster than its tail; a linear mode rings at one frequency throughout.
+/// `rate_hz` is the impact rate (peaks closer than half a period are merged).
+pub fn ringdown_frequencies(x: &[f32], fs: f32, lo: f32, hi: f32, rate_hz: f32) -> Option<(f32, f32)> {
     let n = 8192usize;
     if x.len() < n {
         return None;
     }
     let mut scratch = vec![Complex32::ZERO; n];
-    let mut samples: Vec<(f32, f32)> = Vec::new();
+    let fc = 0.5 * (lo + hi);
+    let cycle = (fs / fc).max(2.0);
+    let w1 = (2.0 * cycle).round() as usize; // early window: first two cycles
+    let gap = (1.0 * cycle).round() as usize;
+    let min_sep = (0.5 * fs / rate_hz.max(1.0)) as usize;
+    let (mut se, mut we, mut sl, mut wl) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
     for start in (0..=x.len() - n).step_by(n) {
         let seg = &x[start..start + n];
         let mean = seg.iter().sum::<f32>() / n as f32;
@@ -265,39 +398,49 @@ pub fn amplitude_frequency_dependence(x: &[f32], fs: f32, lo: f32, hi: f32) -> O
         let df = fs / n as f32;
         for (k, z) in scratch.iter_mut().enumerate() {
             let f = k as f32 * df;
-            *z = if k > 0 && k < n / 2 && f >= lo && f <= hi {
-                Complex32::new(2.0 * z.re, 2.0 * z.im)
-            } else {
-                Complex32::ZERO
-            };
+            *z = if k > 0 && k < n / 2 && f >= lo && f <= hi { Complex32::new(2.0 * z.re, 2.0 * z.im) } else { Complex32::ZERO };
         }
         fft_in_place(&mut scratch, Direction::Inverse).ok()?;
-        // Skip block edges (filter transients).
-        for i in 64..n - 64 {
-            let (a, b) = (scratch[i], scratch[i + 1]);
-            let amp = a.norm();
-            // Phase increment arg(b · conj(a)).
-            let dphi = (b.im * a.re - b.re * a.im).atan2(b.re * a.re + b.im * a.im);
-            samples.push((amp, dphi * fs / (2.0 * std::f32::consts::PI)));
+        let amp: Vec<f32> = scratch.iter().map(|z| z.norm()).collect();
+        let mut sorted = amp.clone();
+        let q = sorted.len() * 99 / 100;
+        let p99 = *sorted.select_nth_unstable_by(q, |a, b| a.total_cmp(b)).1;
+        let margin = 64 + 8 * w1;
+        let mut i = margin;
+        while i + margin < n {
+            // A ring-down starts at a local envelope maximum above 30 % of the 99th percentile.
+            if amp[i] >= 0.3 * p99 && amp[i] >= amp[i - 1] && amp[i] > amp[i + 1] {
+                let phase_span = |a: usize, b: usize| -> f64 {
+                    let mut total = 0.0f64;
+                    for k in a..b {
+                        let (u, v) = (scratch[k], scratch[k + 1]);
+                        total += f64::from((v.im * u.re - v.re * u.im).atan2(v.re * u.re + v.im * u.im));
+                    }
+                    total
+                };
+                let a0 = i + 1;
+                let early = phase_span(a0, a0 + w1);
+                let late = phase_span(a0 + w1 + gap, a0 + 3 * w1 + gap);
+                let weight = f64::from(amp[i]).powi(2);
+                se += weight * early / w1 as f64;
+                we += weight;
+                sl += weight * late / (2 * w1) as f64;
+                wl += weight;
+                i += min_sep.max(1);
+            } else {
+                i += 1;
+            }
         }
     }
-    if samples.len() < 1000 {
+    if we <= 0.0 || wl <= 0.0 {
         return None;
     }
-    samples.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let n = samples.len();
-    let avg = |s: &[(f32, f32)]| {
-        let w: f32 = s.iter().map(|p| p.0 * p.0).sum();
-        s.iter().map(|p| p.0 * p.0 * p.1).sum::<f32>() / w.max(f32::MIN_POSITIVE)
-    };
-    Some((
-        avg(&samples[n * 95 / 100..]),
-        avg(&samples[n * 40 / 100..n * 70 / 100]),
-    ))
+    let to_hz = f64::from(fs) / (2.0 * std::f64::consts::PI);
+    Some(((se / we * to_hz) as f32, (sl / wl * to_hz) as f32))
 }
 
 /// What the tracer is told about the measurement.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct TraceContext<'a> {
     /// Measured signal.
     pub x: &'a [f32],
@@ -307,6 +450,10 @@ pub struct TraceContext<'a> {
     pub model: &'a TwinModel,
     /// Signature settings used for the residual.
     pub cfg: &'a SignatureConfig,
+    /// Measured PSD in dB at residual resolution.
+    pub meas_psd_db: Vec<f32>,
+    /// Model PSD in dB (same reference) at residual resolution.
+    pub sim_psd_db: Vec<f32>,
 }
 
 fn evidence(summary: String, components: Vec<Component>) -> Evidence {
@@ -335,10 +482,25 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
     let comb = model.fault.map(|loc| {
         f64::from(model.op.freqs.impact_rate(loc)) * (1.0 + model.get("rate_factor").unwrap_or(0.0))
     });
+    // With load-zone modulation in the model its sidebands k·rate ± m·f_mod are the
+    // model's lines too.
+    let sideband = match model.effects.iter().find_map(|(e, _)| match e {
+        Effect::LoadZoneModulation { mod_hz } => Some(*mod_hz),
+        _ => None,
+    }) {
+        Some(f) => f,
+        None => 0.0,
+    };
     let on_comb = |c: &Component| {
         comb.is_some_and(|r| {
-            let k = (c.f_hz / r).round();
-            k >= 1.0 && (c.f_hz - k * r).abs() <= 2.0 * df + 0.002 * c.f_hz
+            (-2i32..=2).any(|m| {
+                if m != 0 && sideband == 0.0 {
+                    return false;
+                }
+                let f = c.f_hz - f64::from(m) * sideband;
+                let k = (f / r).round();
+                k >= 1.0 && (f - k * r).abs() <= 2.0 * df + 0.002 * c.f_hz
+            })
         })
     };
     let lines: Vec<&Component> = analysis
@@ -376,6 +538,7 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
                         comps,
                     ),
                     strength,
+                    check: Check::Lines,
                 });
                 break;
             }
@@ -401,6 +564,7 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
                     comps,
                 ),
                 strength,
+                check: Check::Lines,
             });
         }
     }
@@ -417,6 +581,7 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
                     vec![c.clone()],
                 ),
                 strength: c.excess_db - 3.0,
+                check: Check::Lines,
             });
         }
     }
@@ -463,6 +628,7 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
                 effect: Effect::ExtraResonance { f_hz: b.f_hz },
                 evidence: ev,
                 strength,
+                check: Check::Lines,
             });
         } else if !structural && !has(model, "unexplained_band") {
             ev.summary
@@ -474,6 +640,7 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
                 },
                 evidence: ev,
                 strength: strength - 2.0,
+                check: Check::Lines,
             });
         }
     }
@@ -505,34 +672,28 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
                 effect: Effect::LoadZoneModulation { mod_hz: fm },
                 evidence: evidence(format!("{} envelope line(s) at k·{fd:.1} ± m·{fm:.2} Hz sidebands or at m·{fm:.2} Hz: the impacts are amplitude-modulated", side.len()), side),
                 strength,
+                check: Check::Lines,
             });
         }
     }
 
-    // --- Smearing of the defect harmonics: slip or speed drift.
+    // --- Washed-out defect comb: slip or speed drift.
     if let Some(loc) = model.fault {
         if !has(model, "slip") && !has(model, "speed_drift") {
-            let fd = model.op.freqs.impact_rate(loc);
-            let band = ctx.cfg.env_band;
-            let n = 16384;
-            if let (Some((ms, df_m)), Some((ss, _))) = (
-                band_envelope_spectrum(ctx.x, fs, band.lo_hz, band.hi_hz, n),
-                band_envelope_spectrum(ctx.sim, fs, band.lo_hz, band.hi_hz, n),
-            ) {
-                let orders = [1usize, 2, 3, 4];
-                let wm: Vec<f32> = orders
-                    .iter()
-                    .map(|&h| line_width(&ms, df_m, h as f32 * fd))
-                    .collect();
-                let ws: Vec<f32> = orders
-                    .iter()
-                    .map(|&h| line_width(&ss, df_m, h as f32 * fd))
-                    .collect();
-                let excess: Vec<f32> = wm.iter().zip(&ws).map(|(a, b)| a - b).collect();
-                let grows = excess[3] > excess[0] && excess[2] > 0.0 && excess[3] > 1.0 * df_m;
-                if grows {
-                    // Speed drift moves the line between the record's halves; slip does not.
+            let rate = f64::from(model.op.freqs.impact_rate(loc)) * (1.0 + model.get("rate_factor").unwrap_or(0.0));
+            let cm = comb_contrast(&ctx.meas_psd_db, ctx.cfg, rate);
+            let cs = comb_contrast(&ctx.sim_psd_db, ctx.cfg, rate);
+            let n = cm.len().min(cs.len());
+            if n >= 9 {
+                let delta: Vec<f32> = cm.iter().zip(&cs).map(|(a, b)| a - b).collect();
+                let low = delta[..3].iter().sum::<f32>() / 3.0;
+                let high = delta[n - n / 3..n].iter().sum::<f32>() / (n / 3) as f32;
+                // The model's own high teeth must stand out, or there is nothing to wash out.
+                let model_high = cs[n - n / 3..n].iter().sum::<f32>() / (n / 3) as f32;
+                if high - low < -4.0 && model_high > 6.0 {
+                    let band = ctx.cfg.env_band;
                     let half = ctx.x.len() / 2;
+                    let fd = rate as f32;
                     let h = 3.0;
                     let f1 = envelope_line(&ctx.x[..half], fs, band, h * fd, 8192);
                     let f2 = envelope_line(&ctx.x[half..], fs, band, h * fd, 8192);
@@ -541,24 +702,32 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
                         _ => 0.0,
                     };
                     let mut figures = serde_json::Map::new();
-                    figures.insert("line_rms_width_hz_measured".into(), serde_json::json!(wm));
-                    figures.insert("line_rms_width_hz_model".into(), serde_json::json!(ws));
-                    figures.insert(
-                        "relative_rate_shift_between_halves".into(),
-                        serde_json::json!(shift),
-                    );
-                    let strength = 6.0 + 10.0 * (excess[3] / df_m).min(3.0);
+                    figures.insert("comb_contrast_loss_low_orders_db".into(), serde_json::json!(low));
+                    figures.insert("comb_contrast_loss_high_orders_db".into(), serde_json::json!(high));
+                    figures.insert("relative_rate_shift_between_halves".into(), serde_json::json!(shift));
+                    let strength = 6.0 + (low - high).min(20.0);
+                    let half_s = (half as f64 / f64::from(fs)).max(1e-3);
                     if shift.abs() > 0.0025 {
                         out.push(Candidate {
-                            effect: Effect::SpeedDrift,
-                            evidence: Evidence { summary: format!("defect harmonics smeared in proportion to order, and the defect rate moves by {:+.2} % between the record's halves: the speed drifts", 100.0 * shift), components: vec![], figures },
+                            effect: Effect::SpeedDrift { initial_per_s: f64::from(shift) / half_s },
+                            evidence: Evidence {
+                                summary: format!("the defect comb loses {:.1} dB more contrast at high orders than the model, and the defect rate moves by {:+.2} % between the record's halves: the speed drifts", low - high, 100.0 * shift),
+                                components: vec![],
+                                figures,
+                            },
                             strength,
+                            check: Check::CombContrast { rate },
                         });
                     } else {
                         out.push(Candidate {
                             effect: Effect::Slip,
-                            evidence: Evidence { summary: format!("defect harmonics smeared more with order (RMS widths {:?} Hz vs model {:?} Hz) at a steady rate: rolling-element slip", round2(&wm), round2(&ws)), components: vec![], figures },
+                            evidence: Evidence {
+                                summary: format!("the defect comb loses {:.1} dB more contrast at high orders than the model at a steady rate ({:+.2} % between halves): random impact timing, rolling-element slip", low - high, 100.0 * shift),
+                                components: vec![],
+                                figures,
+                            },
                             strength,
+                            check: Check::CombContrast { rate },
                         });
                     }
                 }
@@ -570,28 +739,31 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
     if !has(model, "nonlinear_stiffness") {
         let fn_hz = model.get("ln_fn_hz").map_or(3000.0, f64::exp) as f32;
         let (lo, hi) = (0.75 * fn_hz, (1.25 * fn_hz).min(0.45 * fs));
-        if let (Some((mh, mm)), Some((sh, sm))) = (
-            amplitude_frequency_dependence(ctx.x, fs, lo, hi),
-            amplitude_frequency_dependence(ctx.sim, fs, lo, hi),
+        let rate = model.fault.map_or(0.0, |loc| model.op.freqs.impact_rate(loc));
+        if let (true, Some((mh, mm)), Some((sh, sm))) = (
+            rate > 0.0,
+            ringdown_frequencies(ctx.x, fs, lo, hi, rate),
+            ringdown_frequencies(ctx.sim, fs, lo, hi, rate),
         ) {
             let meas_shift = mh / mm - 1.0;
             let model_shift = sh / sm - 1.0;
             if meas_shift - model_shift > 0.01 {
                 let mut figures = serde_json::Map::new();
-                figures.insert("inst_freq_high_amplitude_hz".into(), serde_json::json!(mh));
-                figures.insert("inst_freq_mid_amplitude_hz".into(), serde_json::json!(mm));
+                figures.insert("ringdown_early_hz".into(), serde_json::json!(mh));
+                figures.insert("ringdown_late_hz".into(), serde_json::json!(mm));
                 figures.insert(
                     "model_relative_shift".into(),
                     serde_json::json!(model_shift),
                 );
                 out.push(Candidate {
-                    effect: Effect::NonlinearStiffness,
+                    effect: Effect::NonlinearStiffness { initial_rel_shift: f64::from(meas_shift - model_shift) },
                     evidence: Evidence {
-                        summary: format!("the resonance near {fn_hz:.0} Hz runs {:.1} % faster at high amplitude than at mid amplitude (model: {:.1} %): hardening stiffness", 100.0 * meas_shift, 100.0 * model_shift),
+                        summary: format!("ring-downs near {fn_hz:.0} Hz start {:.1} % faster than they end (model: {:.1} %): the stiffness hardens with amplitude", 100.0 * meas_shift, 100.0 * model_shift),
                         components: vec![],
                         figures,
                     },
                     strength: 6.0 + 300.0 * (meas_shift - model_shift),
+                    check: Check::Ringdown { lo, hi, rate },
                 });
             }
         }
@@ -601,6 +773,18 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
     out
 }
 
-fn round2(v: &[f32]) -> Vec<f32> {
-    v.iter().map(|x| (x * 100.0).round() / 100.0).collect()
+
+#[cfg(test)]
+mod probe_tests {
+    use super::*;
+    use crate::twin::generate::{generate, Injected, Strength};
+
+    #[test]
+    fn print_amplitude_dependence() {
+        for e in [Injected::None, Injected::NonlinearStiffness] {
+            let x = generate(e, Strength::Realistic, 4.0, 1).unwrap();
+            let r = ringdown_frequencies(&x, 12000.0, 2250.0, 3750.0, 107.4);
+            eprintln!("{e:?}: {r:?}");
+        }
+    }
 }
