@@ -52,7 +52,7 @@ impl Default for LoopConfig {
             residual_seconds: 6.0,
             max_record_seconds: 6.0,
             min_relative_gain: 0.03,
-            max_iter: 12,
+            max_iter: 20,
             seed: 0x7717,
             fault_threshold_db: 8.0,
         }
@@ -517,4 +517,32 @@ pub fn envelope_pairs(a: &LoopArtifacts, model: &Signature) -> Vec<(f32, f32, f3
         .env_bins()
         .map(|k| (a.cfg.env_freq(k), a.measured.env[k], model.env[k]))
         .collect()
+}
+
+#[cfg(test)]
+mod probe_tests {
+    use super::*;
+    use crate::twin::fit::{evaluate, FitConfig, Target};
+    use crate::twin::generate::{generate, Injected, Strength};
+    use crate::twin::model::{OperatingPoint, TwinModel};
+
+    #[test]
+    fn probe_cost_at_truth() {
+        let x = generate(Injected::None, Strength::Realistic, 6.0, 1).unwrap();
+        let op = OperatingPoint { fs_hz: 12000.0, freqs: BearingGeometry::CWRU_6205_DE.frequencies(1797.0 / 60.0) };
+        let target = Target::of(&x, SignatureConfig::fit(12000.0)).unwrap();
+        let cfg = FitConfig { n_sim: x.len(), seed: 0x7717, max_iter: 0 };
+        for (fn_hz, zeta, amp, bg, noise) in [(3000.0, 0.05, 40.0, 0.25, 0.02), (2944.7, 0.0522, 41.05, 0.262, 0.0164), (3000.0, 0.05, 40.0, 0.0, 0.02)] {
+            let mut m = TwinModel::base(op, Some(DefectLocation::OuterRace), fn_hz, zeta, amp, noise);
+            for p in m.params.iter_mut() {
+                if p.name == "ln_background" { p.value = (bg as f64 + 1e-12).ln(); }
+            }
+            let (_, cost, sig) = evaluate(&m, &target, &cfg).unwrap();
+            let e = super::super::signature::error_figures(&sig, &target.meas, &target.cfg);
+            eprintln!("fn {fn_hz} zeta {zeta} amp {amp} bg {bg} noise {noise}: cost {cost:.4} {e:?}");
+        }
+        let m = TwinModel::base(op, Some(DefectLocation::OuterRace), 2900.0, 0.05, 35.0, 0.03);
+        let r = crate::twin::fit::fit(&m, &target, &FitConfig { max_iter: 30, ..cfg }).unwrap();
+        eprintln!("fit: {:?} cost {}", r.model.physical(), r.cost);
+    }
 }

@@ -124,14 +124,17 @@ fn solve_spd(a: &[Vec<f64>], b: &[f64]) -> Option<Vec<f64>> {
 /// Levenberg–Marquardt from `start`.
 pub fn fit(start: &TwinModel, target: &Target, cfg: &FitConfig) -> Result<FitResult, FitError> {
     let mut theta = start.theta();
-    let p = theta.len();
+    // Parameters with a zero step are held (the defect rate: it is measured from the
+    // comb directly, and the cost is too rough in it for derivatives).
+    let free: Vec<usize> = (0..theta.len()).filter(|&i| start.params[i].step > 0.0).collect();
+    let p = free.len();
     let (mut r, mut cost, _) = evaluate(start, target, cfg)?;
     let mut evaluations = 1;
     let mut lambda = 1e-2f64;
     for _ in 0..cfg.max_iter {
         // Jacobian by forward differences.
         let mut jac = vec![vec![0.0f64; r.len()]; p];
-        for (i, col) in jac.iter_mut().enumerate() {
+        for (col, &i) in jac.iter_mut().zip(&free) {
             let step = start.params[i].step;
             let mut t = theta.clone();
             t[i] += step;
@@ -167,7 +170,10 @@ pub fn fit(start: &TwinModel, target: &Target, cfg: &FitConfig) -> Result<FitRes
             if biggest > 0.7 {
                 delta.iter_mut().for_each(|d| *d *= 0.7 / biggest);
             }
-            let trial: Vec<f64> = theta.iter().zip(&delta).map(|(t, d)| t + d).collect();
+            let mut trial = theta.clone();
+            for (&i, d) in free.iter().zip(&delta) {
+                trial[i] += d;
+            }
             let candidate = start.with_theta(&trial);
             let outcome = evaluate(&candidate, target, cfg);
             evaluations += 1;
@@ -178,7 +184,7 @@ pub fn fit(start: &TwinModel, target: &Target, cfg: &FitConfig) -> Result<FitRes
                     r = rt;
                     cost = ct;
                     lambda = (lambda / 3.0).max(1e-7);
-                    improved = gain > 1e-4;
+                    improved = gain > 1e-5;
                     break;
                 }
                 _ => lambda *= 4.0,

@@ -217,7 +217,7 @@ impl TwinModel {
         ];
         if fault.is_some() {
             params.push(p("ln_impact_amp", amp.ln(), 1e-2));
-            params.push(p("rate_factor", 0.0, 2e-4));
+            params.push(p("rate_factor", 0.0, 0.0));
         }
         params.push(p("ln_background", (0.05 * amp).ln(), 1e-2));
         params.push(p("ln_meas_noise", noise.ln(), 1e-2));
@@ -339,7 +339,11 @@ impl TwinModel {
             ),
             None => (1.0, 0.0),
         };
-        let rate = rate * (1.0 + get("rate_factor").unwrap_or(0.0).clamp(-0.1, 0.1));
+        // A drift is centred on the kept record, so the mean rate stays the fitted one.
+        let t_mid = (n_warm as f64 + 0.5 * n_keep as f64) / fs;
+        let centre = 1.0 / (1.0 + drift * t_mid);
+        let rate = centre * rate * (1.0 + get("rate_factor").unwrap_or(0.0).clamp(-0.1, 0.1));
+        let shaft = centre * shaft;
         let (depth, mod_hz) = match self.effect_params("load_zone_modulation") {
             Some((Effect::LoadZoneModulation { mod_hz }, p)) => {
                 (1.0 / (1.0 + (-p[0].value).exp()), *mod_hz)
@@ -356,7 +360,7 @@ impl TwinModel {
                 sigma_s: IMPACT_SIGMA_S,
                 first_impact_s: 0.37 / rate,
                 modulation_depth: depth,
-                modulation_hz: mod_hz,
+                modulation_hz: mod_hz * centre,
                 jitter,
                 rate_drift_per_s: drift,
             },
