@@ -24,6 +24,9 @@ pub enum Error {
         /// Index of the step at which the state stopped being finite.
         step: usize,
     },
+    /// A masked reduction (softmax row, attention pooling) has no present entry:
+    /// every node or neighbour is masked out.
+    NothingPresent,
 }
 
 /// Result alias for the core.
@@ -40,6 +43,7 @@ impl core::fmt::Display for Error {
             Error::NotPowerOfTwo(n) => write!(f, "transform length {n} is not a power of two >= 2"),
             Error::Degenerate => f.write_str("signal has zero variance"),
             Error::Diverged { step } => write!(f, "integration diverged at step {step}"),
+            Error::NothingPresent => f.write_str("every entry of a masked reduction is absent"),
         }
     }
 }

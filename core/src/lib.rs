@@ -12,6 +12,7 @@
 //! | [`fir`] | windowed-sinc low-pass, the common band limit and anti-alias filter | — |
 //! | [`features`] | time, spectral and envelope-spectrum node features | eq. 9, Table 3 |
 //! | [`graph`] | dynamic sparse sensor graph: prior ⊕ Pearson, threshold, normalization | eqs. 1–3 |
+//! | [`quant`] | int8 DS-STGAT kernels (linear, LUTs, softmax, GAT, GRU, pooling, classifier) with float references | eqs. 4–8 |
 //! | [`rng`] | seeded PRNG (xoshiro128++), Gaussian and Poisson draws | §5.2 random excitation |
 //!
 //! Memory: every function writes into buffers the caller owns; nothing allocates.
@@ -33,6 +34,7 @@ pub mod fft;
 pub mod fir;
 pub mod graph;
 mod math;
+pub mod quant;
 pub mod rng;
 pub mod simulator;
 pub mod units;

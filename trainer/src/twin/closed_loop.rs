@@ -4,7 +4,9 @@
 
 use super::fit::{evaluate, fit, FitConfig, FitError, FitResult, Target};
 use super::model::{fault_name, Effect, OperatingPoint, TwinModel};
-use super::residual::{analyse, evidence_gap, trace, Check, Evidence, ResidualAnalysis, TraceContext};
+use super::residual::{
+    analyse, evidence_gap, trace, Check, Evidence, ResidualAnalysis, TraceContext,
+};
 use super::signature::{to_db, ErrorFigures, Signature, SignatureConfig};
 use pumptwin_core::bearing::{BearingGeometry, DefectLocation};
 use pumptwin_core::features::harmonic_level_db;
@@ -255,13 +257,20 @@ fn initial_model(
 
 /// Amplitude (output units) of a sinusoid carrying the measured power in excess of the
 /// model within ±2 bins of `f` (a one-sided PSD line of amplitude A holds A²/2).
-fn excess_line_amplitude(meas: &Signature, sim: &Signature, cfg: &SignatureConfig, f: f64) -> Option<f64> {
+fn excess_line_amplitude(
+    meas: &Signature,
+    sim: &Signature,
+    cfg: &SignatureConfig,
+    f: f64,
+) -> Option<f64> {
     let df = f64::from(cfg.fs_hz) / cfg.psd_n as f64;
     let k = (f / df).round() as usize;
     if k + 2 >= meas.psd.len() {
         return None;
     }
-    let excess: f64 = (k.saturating_sub(2)..=k + 2).map(|i| f64::from(meas.psd[i] - sim.psd[i]).max(0.0)).sum();
+    let excess: f64 = (k.saturating_sub(2)..=k + 2)
+        .map(|i| f64::from(meas.psd[i] - sim.psd[i]).max(0.0))
+        .sum();
     (excess > 0.0).then(|| (2.0 * excess).sqrt())
 }
 
@@ -353,8 +362,16 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
     let target_res = Target::of(x, sig_res).map_err(|e| LoopError::Fit(e.into()))?;
     // The model is simulated over as long a span as the record it is compared with, so
     // anything that builds up over the record (a drifting speed) is seen alike.
-    let span = |s: f64| ((s * f64::from(input.fs_hz)) as usize).min(x.len()).max(2 * sig_res.env_n);
-    let fit_cfg = FitConfig { n_sim: span(cfg.fit_seconds), seed: cfg.seed, max_iter: cfg.max_iter };
+    let span = |s: f64| {
+        ((s * f64::from(input.fs_hz)) as usize)
+            .min(x.len())
+            .max(2 * sig_res.env_n)
+    };
+    let fit_cfg = FitConfig {
+        n_sim: span(cfg.fit_seconds),
+        seed: cfg.seed,
+        max_iter: cfg.max_iter,
+    };
     let n_res = span(cfg.residual_seconds);
 
     let (fault, fault_evidence) = identify_fault(&target, &op, cfg.fault_threshold_db);
@@ -421,12 +438,17 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
         let mut accepted = false;
         for cand in candidates.into_iter().take(3) {
             tried.push(cand.effect.name().to_string());
-            let line_amp = |f: f64| excess_line_amplitude(&target_res.meas, &sim_sig_now, &sig_res, f);
-            let trial = fit(&current.model.with_effect(cand.effect.clone(), &line_amp), &target, &fit_cfg)?;
+            let line_amp =
+                |f: f64| excess_line_amplitude(&target_res.meas, &sim_sig_now, &sig_res, f);
+            let trial = fit(
+                &current.model.with_effect(cand.effect.clone(), &line_amp),
+                &target,
+                &fit_cfg,
+            )?;
             evaluations += trial.evaluations;
             // The effect must explain its own evidence (the statistic behind it halves,
-            // or the lines drop by 3 dB) without making the global fit worse; or it must
-            // lower the global error by `min_relative_gain` on its own.
+            // or the lines drop by 3 dB) and lower the global error by at least 1 %; or it
+            // must lower the global error by `min_relative_gain` on its own.
             let (y_trial, trial_sig) = residual_of(&trial.model)?;
             let gap = |y: &[f32], sig: &Signature| {
                 evidence_gap(
@@ -446,7 +468,7 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
                 Check::Lines => gap_after <= gap_before - 3.0,
                 _ => gap_after <= 0.5 * gap_before,
             };
-            let local_ok = explained && trial.cost < current.cost * 0.999;
+            let local_ok = explained && trial.cost < current.cost * 0.99;
             if local_ok || trial.cost < current.cost * (1.0 - cfg.min_relative_gain) {
                 steps.push(LoopStep {
                     effect: cand.effect.name().to_string(),
@@ -520,29 +542,84 @@ pub fn envelope_pairs(a: &LoopArtifacts, model: &Signature) -> Vec<(f32, f32, f3
 }
 
 #[cfg(test)]
-mod probe_tests {
+mod tests {
     use super::*;
-    use crate::twin::fit::{evaluate, FitConfig, Target};
     use crate::twin::generate::{generate, Injected, Strength};
-    use crate::twin::model::{OperatingPoint, TwinModel};
+
+    /// On a clean synthetic record with known truth (generator: f_n = 3000 Hz, ζ = 0.05,
+    /// A = 40 N, kinematic BPFO, σ_y = 0.02 g), the first fit recovers the parameters.
+    /// Tolerances: 2 % for natural frequency, damping ratio, impact amplitude and rate;
+    /// 10 % for the measurement noise, which is seen only in the comb's valleys below
+    /// the band limit. Records of 10 s (a CWRU record's length), all of it used: the
+    /// estimates' spread at the default 6 s span is about ±2 % on ζ.
+    #[test]
+    fn fit_recovers_known_parameters() {
+        for seed in [11, 12] {
+            check_recovery(seed);
+        }
+    }
+
+    fn check_recovery(seed: u64) {
+        let x = generate(Injected::None, Strength::Realistic, 10.0, seed).unwrap();
+        let input = LoopInput {
+            signal: x,
+            fs_hz: 12_000.0,
+            rpm: 1797.0,
+            bearing: BearingGeometry::CWRU_6205_DE,
+        };
+        let cfg = LoopConfig {
+            max_record_seconds: 10.0,
+            fit_seconds: 10.0,
+            residual_seconds: 10.0,
+            ..LoopConfig::default()
+        };
+        let (report, _) = run(&input, &cfg).unwrap();
+        assert_eq!(report.fault, "outer_race");
+        assert!(
+            report.effects.is_empty(),
+            "control claimed {:?}",
+            report.effects
+        );
+        let p = &report.params_initial;
+        let get = |k: &str| p[k].as_f64().unwrap();
+        let rel = |v: f64, t: f64| (v / t - 1.0).abs();
+        assert!(rel(get("fn_hz"), 3000.0) < 0.02, "fn {}", get("fn_hz"));
+        assert!(rel(get("zeta"), 0.05) < 0.02, "zeta {}", get("zeta"));
+        assert!(
+            rel(get("impact_amp"), 40.0) < 0.02,
+            "amp {}",
+            get("impact_amp")
+        );
+        assert!(
+            get("rate_factor").abs() < 0.02,
+            "rate factor {}",
+            get("rate_factor")
+        );
+        assert!(
+            rel(get("meas_noise"), 0.02) < 0.10,
+            "noise {}",
+            get("meas_noise")
+        );
+    }
 
     #[test]
-    fn probe_cost_at_truth() {
-        let x = generate(Injected::None, Strength::Realistic, 6.0, 1).unwrap();
-        let op = OperatingPoint { fs_hz: 12000.0, freqs: BearingGeometry::CWRU_6205_DE.frequencies(1797.0 / 60.0) };
-        let target = Target::of(&x, SignatureConfig::fit(12000.0)).unwrap();
-        let cfg = FitConfig { n_sim: x.len(), seed: 0x7717, max_iter: 0 };
-        for (fn_hz, zeta, amp, bg, noise) in [(3000.0, 0.05, 40.0, 0.25, 0.02), (2944.7, 0.0522, 41.05, 0.262, 0.0164), (3000.0, 0.05, 40.0, 0.0, 0.02)] {
-            let mut m = TwinModel::base(op, Some(DefectLocation::OuterRace), fn_hz, zeta, amp, noise);
-            for p in m.params.iter_mut() {
-                if p.name == "ln_background" { p.value = (bg as f64 + 1e-12).ln(); }
-            }
-            let (_, cost, sig) = evaluate(&m, &target, &cfg).unwrap();
-            let e = super::super::signature::error_figures(&sig, &target.meas, &target.cfg);
-            eprintln!("fn {fn_hz} zeta {zeta} amp {amp} bg {bg} noise {noise}: cost {cost:.4} {e:?}");
-        }
-        let m = TwinModel::base(op, Some(DefectLocation::OuterRace), 2900.0, 0.05, 35.0, 0.03);
-        let r = crate::twin::fit::fit(&m, &target, &FitConfig { max_iter: 30, ..cfg }).unwrap();
-        eprintln!("fit: {:?} cost {}", r.model.physical(), r.cost);
+    fn bad_input_is_an_error() {
+        let input = LoopInput {
+            signal: vec![0.1; 100],
+            fs_hz: 12_000.0,
+            rpm: 1797.0,
+            bearing: BearingGeometry::CWRU_6205_DE,
+        };
+        assert!(matches!(
+            run(&input, &LoopConfig::default()),
+            Err(LoopError::Input(_))
+        ));
+        let mut signal = vec![0.1f32; 50_000];
+        signal[7] = f32::NAN;
+        let input = LoopInput { signal, ..input };
+        assert!(matches!(
+            run(&input, &LoopConfig::default()),
+            Err(LoopError::Input(_))
+        ));
     }
 }

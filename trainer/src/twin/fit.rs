@@ -126,7 +126,9 @@ pub fn fit(start: &TwinModel, target: &Target, cfg: &FitConfig) -> Result<FitRes
     let mut theta = start.theta();
     // Parameters with a zero step are held (the defect rate: it is measured from the
     // comb directly, and the cost is too rough in it for derivatives).
-    let free: Vec<usize> = (0..theta.len()).filter(|&i| start.params[i].step > 0.0).collect();
+    let free: Vec<usize> = (0..theta.len())
+        .filter(|&i| start.params[i].step > 0.0)
+        .collect();
     let p = free.len();
     let (mut r, mut cost, _) = evaluate(start, target, cfg)?;
     let mut evaluations = 1;

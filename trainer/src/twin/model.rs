@@ -64,6 +64,8 @@ pub enum Effect {
     SpeedDrift {
         /// Starting value of the drift (fraction per second), from the evidence.
         initial_per_s: f64,
+        /// Starting mean-rate factor (`mean rate / kinematic − 1`), from the evidence.
+        initial_rate_factor: f64,
     },
     /// A second structural mode near `f_hz`.
     ExtraResonance {
@@ -136,7 +138,9 @@ impl Effect {
                 .collect(),
             Effect::LoadZoneModulation { .. } => vec![("logit_modulation_depth".into(), 0.0)],
             Effect::Slip => vec![("ln_jitter".into(), (0.005f64).ln())],
-            Effect::SpeedDrift { initial_per_s } => vec![("drift_per_s".into(), *initial_per_s)],
+            Effect::SpeedDrift { initial_per_s, .. } => {
+                vec![("drift_per_s".into(), *initial_per_s)]
+            }
             Effect::ExtraResonance { f_hz } => vec![
                 ("ln_fn2_hz".into(), f_hz.ln()),
                 ("ln_zeta2".into(), (0.03f64).ln()),
@@ -150,10 +154,13 @@ impl Effect {
                 let rho = (8.0 / 3.0) * 2.0 * initial_rel_shift.max(1e-4) * (X_REF_M / a).powi(2);
                 vec![("ln_knl_rel".into(), rho.ln())]
             }
-            Effect::LineInterference { freqs } => {
-                freqs.iter().map(|f| (format!("ln_line_amp_{f:.1}hz"), amp_or(*f))).collect()
+            Effect::LineInterference { freqs } => freqs
+                .iter()
+                .map(|f| (format!("ln_line_amp_{f:.1}hz"), amp_or(*f)))
+                .collect(),
+            Effect::UnexplainedPeriodic { f_hz, .. } => {
+                vec![("ln_periodic_amp".into(), amp_or(*f_hz))]
             }
-            Effect::UnexplainedPeriodic { f_hz, .. } => vec![("ln_periodic_amp".into(), amp_or(*f_hz))],
             Effect::UnexplainedBand { .. } => vec![("ln_band_level".into(), noise.ln())],
         }
     }
@@ -239,7 +246,10 @@ impl TwinModel {
         let zeta = self.get("ln_zeta").map_or(0.05, f64::exp);
         // Acceleration per newton of a unit-mass mode, in g: ω² / |ω_n² − ω² + 2iζω_nω| / g.
         let force_gain = |f: f64| {
-            let (w, wn) = (2.0 * std::f64::consts::PI * f, 2.0 * std::f64::consts::PI * fn_hz);
+            let (w, wn) = (
+                2.0 * std::f64::consts::PI * f,
+                2.0 * std::f64::consts::PI * fn_hz,
+            );
             let re = wn * wn - w * w;
             let im = 2.0 * zeta * wn * w;
             w * w / (re * re + im * im).sqrt() / f64::from(G)
@@ -248,10 +258,31 @@ impl TwinModel {
         let shaft = f64::from(self.op.freqs.shaft);
         // Peak displacement of an impact ring-down: impulse A·σ·√(2π) / (m·ω_n).
         let amp = self.get("ln_impact_amp").map_or(0.0, f64::exp);
-        let peak = amp * IMPACT_SIGMA_S * (2.0 * std::f64::consts::PI).sqrt() / (2.0 * std::f64::consts::PI * fn_hz);
+        let peak = amp * IMPACT_SIGMA_S * (2.0 * std::f64::consts::PI).sqrt()
+            / (2.0 * std::f64::consts::PI * fn_hz);
         for (name, value) in effect.initial(noise, line_amp, &force_gain, shaft, peak) {
-            let step = if name.starts_with("ln_") || name.starts_with("logit_") { 1e-2 } else { 1e-4 };
+            let step = if name.starts_with("ln_") || name.starts_with("logit_") {
+                1e-2
+            } else {
+                1e-4
+            };
             m.params.push(Param { name, value, step });
+        }
+        // A washed-out comb no longer pins the rate: let the fit move it.
+        if let Effect::SpeedDrift {
+            initial_rate_factor,
+            ..
+        } = &effect
+        {
+            if let Some(p) = m.params.iter_mut().find(|p| p.name == "rate_factor") {
+                p.value = *initial_rate_factor;
+                p.step = 1e-4;
+            }
+        }
+        if matches!(effect, Effect::Slip) {
+            if let Some(p) = m.params.iter_mut().find(|p| p.name == "rate_factor") {
+                p.step = 1e-4;
+            }
         }
         m.effects.push((effect, first));
         m
@@ -424,7 +455,7 @@ impl TwinModel {
             .zip(&acc_t)
             .map(|(a, b)| ((a + b) / f64::from(G)) as f32)
             .collect();
-        let mut taps = vec![0.0f32; 40 * OVERSAMPLE + 1];
+        let mut taps = vec![0.0f32; 100 * OVERSAMPLE + 1];
         design_lowpass(
             BAND_LIMIT_HZ.min(0.45 * self.op.fs_hz),
             fs_sim as f32,

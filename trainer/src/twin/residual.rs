@@ -98,11 +98,17 @@ pub fn evidence_gap(
         Check::Lines => {
             let mut total = 0.0;
             for c in components {
-                let (m, s, n) = if c.domain == "psd" { (meas_psd_db, sim_psd_db, cfg.psd_n) } else { (meas_env_db, sim_env_db, cfg.env_n) };
+                let (m, s, n) = if c.domain == "psd" {
+                    (meas_psd_db, sim_psd_db, cfg.psd_n)
+                } else {
+                    (meas_env_db, sim_env_db, cfg.env_n)
+                };
                 let k = (c.f_hz * n as f64 / f64::from(cfg.fs_hz)).round() as usize;
                 let lo = k.saturating_sub(1);
                 let hi = (k + 1).min(m.len() - 1);
-                total += (lo..=hi).map(|i| m[i] - s[i]).fold(f32::NEG_INFINITY, f32::max);
+                total += (lo..=hi)
+                    .map(|i| m[i] - s[i])
+                    .fold(f32::NEG_INFINITY, f32::max);
             }
             total / components.len().max(1) as f32
         }
@@ -119,7 +125,10 @@ pub fn evidence_gap(
             (low - high).abs()
         }
         Check::Ringdown { lo, hi, rate } => {
-            match (ringdown_frequencies(x, cfg.fs_hz, lo, hi, rate), ringdown_frequencies(sim, cfg.fs_hz, lo, hi, rate)) {
+            match (
+                ringdown_frequencies(x, cfg.fs_hz, lo, hi, rate),
+                ringdown_frequencies(sim, cfg.fs_hz, lo, hi, rate),
+            ) {
                 (Some((a, b)), Some((c, d))) => 100.0 * ((a / b - 1.0) - (c / d - 1.0)),
                 _ => 0.0,
             }
@@ -203,7 +212,12 @@ pub struct ResidualAnalysis {
 /// Lines come from the raw dB residual; bands from the residual smoothed over 200 Hz,
 /// because a periodic impact train turns every band into a comb of lines whose
 /// valleys would otherwise split it.
-pub fn analyse(meas: &Signature, sim: &Signature, cfg: &SignatureConfig, shaft_hz: f64) -> ResidualAnalysis {
+pub fn analyse(
+    meas: &Signature,
+    sim: &Signature,
+    cfg: &SignatureConfig,
+    shaft_hz: f64,
+) -> ResidualAnalysis {
     let m = to_db(&meas.psd, &meas.psd);
     let s = to_db(&sim.psd, &meas.psd);
     let d: Vec<f32> = m.iter().zip(&s).map(|(a, b)| a - b).collect();
@@ -231,7 +245,12 @@ pub fn analyse(meas: &Signature, sim: &Signature, cfg: &SignatureConfig, shaft_h
     let (envelope, _) = significant_components(&de, cfg.env_bins(), dfe, shaft_hz, "envelope");
     let envelope = envelope.into_iter().filter(|c| c.kind == "line").collect();
     let psd_residual = cfg.psd_bins().map(|k| (cfg.psd_freq(k), d[k])).collect();
-    ResidualAnalysis { psd, envelope, psd_threshold_db: thr, psd_residual }
+    ResidualAnalysis {
+        psd,
+        envelope,
+        psd_threshold_db: thr,
+        psd_residual,
+    }
 }
 
 /// Bands of the smoothed residual: runs at least 100 Hz wide above
@@ -262,7 +281,9 @@ fn significant_bands(
         let end = k - 1;
         let width = (end - start + 1) as f64 * df;
         if width >= 100.0 {
-            let peak = (start..=end).max_by(|&a, &b| d[a].total_cmp(&d[b])).unwrap_or(start);
+            let peak = (start..=end)
+                .max_by(|&a, &b| d[a].total_cmp(&d[b]))
+                .unwrap_or(start);
             let f = peak as f64 * df;
             out.push(Component {
                 domain: "psd",
@@ -287,7 +308,10 @@ pub fn comb_contrast(psd_db: &[f32], cfg: &SignatureConfig, rate_hz: f64) -> Vec
         let k = (f / df).round() as usize;
         let lo = k.saturating_sub(spread);
         let hi = (k + spread).min(psd_db.len() - 1);
-        psd_db[lo..=hi].iter().cloned().fold(f32::NEG_INFINITY, f32::max)
+        psd_db[lo..=hi]
+            .iter()
+            .cloned()
+            .fold(f32::NEG_INFINITY, f32::max)
     };
     let mut out = Vec::new();
     let mut k = 1.0;
@@ -370,13 +394,18 @@ fn envelope_line(x: &[f32], fs: f32, band: EnvelopeBand, f: f32, n: usize) -> Op
     peak_frequency(&one_sided, fs, f - tol, f + tol).ok()
 }
 
-
 /// Ring-down frequency right after each impact vs later in the same ring-down:
 /// `(f_early, f_late)` in Hz, from the unwrapped phase of the band-passed analytic
 /// signal `[lo, hi]`. A hardening stiffness makes the large-amplitude start of each
 /// ring-down faster than its tail; a linear mode rings at one frequency throughout.
 /// `rate_hz` is the impact rate (peaks closer than half a period are merged).
-pub fn ringdown_frequencies(x: &[f32], fs: f32, lo: f32, hi: f32, rate_hz: f32) -> Option<(f32, f32)> {
+pub fn ringdown_frequencies(
+    x: &[f32],
+    fs: f32,
+    lo: f32,
+    hi: f32,
+    rate_hz: f32,
+) -> Option<(f32, f32)> {
     let n = 8192usize;
     if x.len() < n {
         return None;
@@ -398,7 +427,11 @@ pub fn ringdown_frequencies(x: &[f32], fs: f32, lo: f32, hi: f32, rate_hz: f32) 
         let df = fs / n as f32;
         for (k, z) in scratch.iter_mut().enumerate() {
             let f = k as f32 * df;
-            *z = if k > 0 && k < n / 2 && f >= lo && f <= hi { Complex32::new(2.0 * z.re, 2.0 * z.im) } else { Complex32::ZERO };
+            *z = if k > 0 && k < n / 2 && f >= lo && f <= hi {
+                Complex32::new(2.0 * z.re, 2.0 * z.im)
+            } else {
+                Complex32::ZERO
+            };
         }
         fft_in_place(&mut scratch, Direction::Inverse).ok()?;
         let amp: Vec<f32> = scratch.iter().map(|z| z.norm()).collect();
@@ -414,7 +447,8 @@ pub fn ringdown_frequencies(x: &[f32], fs: f32, lo: f32, hi: f32, rate_hz: f32) 
                     let mut total = 0.0f64;
                     for k in a..b {
                         let (u, v) = (scratch[k], scratch[k + 1]);
-                        total += f64::from((v.im * u.re - v.re * u.im).atan2(v.re * u.re + v.im * u.im));
+                        total +=
+                            f64::from((v.im * u.re - v.re * u.im).atan2(v.re * u.re + v.im * u.im));
                     }
                     total
                 };
@@ -484,13 +518,14 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
     });
     // With load-zone modulation in the model its sidebands k·rate ± m·f_mod are the
     // model's lines too.
-    let sideband = match model.effects.iter().find_map(|(e, _)| match e {
-        Effect::LoadZoneModulation { mod_hz } => Some(*mod_hz),
-        _ => None,
-    }) {
-        Some(f) => f,
-        None => 0.0,
-    };
+    let sideband = model
+        .effects
+        .iter()
+        .find_map(|(e, _)| match e {
+            Effect::LoadZoneModulation { mod_hz } => Some(*mod_hz),
+            _ => None,
+        })
+        .unwrap_or(0.0);
     let on_comb = |c: &Component| {
         comb.is_some_and(|r| {
             (-2i32..=2).any(|m| {
@@ -519,7 +554,8 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
             let members: Vec<usize> = (0..lines.len())
                 .filter(|&i| {
                     let k = (lines[i].f_hz / mains).round();
-                    (1.0..=20.0).contains(&k) && (lines[i].f_hz - k * mains).abs() < tol(lines[i].f_hz)
+                    (1.0..=20.0).contains(&k)
+                        && (lines[i].f_hz - k * mains).abs() < tol(lines[i].f_hz)
                 })
                 .collect();
             let not_shaft = members.iter().filter(|&&i| !is_order(lines[i])).count();
@@ -680,7 +716,8 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
     // --- Washed-out defect comb: slip or speed drift.
     if let Some(loc) = model.fault {
         if !has(model, "slip") && !has(model, "speed_drift") {
-            let rate = f64::from(model.op.freqs.impact_rate(loc)) * (1.0 + model.get("rate_factor").unwrap_or(0.0));
+            let rate = f64::from(model.op.freqs.impact_rate(loc))
+                * (1.0 + model.get("rate_factor").unwrap_or(0.0));
             let cm = comb_contrast(&ctx.meas_psd_db, ctx.cfg, rate);
             let cs = comb_contrast(&ctx.sim_psd_db, ctx.cfg, rate);
             let n = cm.len().min(cs.len());
@@ -701,15 +738,30 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
                         (Some(a), Some(b)) => (b - a) / (h * fd),
                         _ => 0.0,
                     };
+                    // Mean defect rate over the record, relative to the kinematic one.
+                    let kin = f64::from(model.op.freqs.impact_rate(loc));
+                    let mean_factor = match (f1, f2) {
+                        (Some(a), Some(b)) => 0.5 * f64::from(a + b) / (3.0 * kin) - 1.0,
+                        _ => model.get("rate_factor").unwrap_or(0.0),
+                    };
                     let mut figures = serde_json::Map::new();
-                    figures.insert("comb_contrast_loss_low_orders_db".into(), serde_json::json!(low));
-                    figures.insert("comb_contrast_loss_high_orders_db".into(), serde_json::json!(high));
-                    figures.insert("relative_rate_shift_between_halves".into(), serde_json::json!(shift));
+                    figures.insert(
+                        "comb_contrast_loss_low_orders_db".into(),
+                        serde_json::json!(low),
+                    );
+                    figures.insert(
+                        "comb_contrast_loss_high_orders_db".into(),
+                        serde_json::json!(high),
+                    );
+                    figures.insert(
+                        "relative_rate_shift_between_halves".into(),
+                        serde_json::json!(shift),
+                    );
                     let strength = 6.0 + (low - high).min(20.0);
                     let half_s = (half as f64 / f64::from(fs)).max(1e-3);
                     if shift.abs() > 0.0025 {
                         out.push(Candidate {
-                            effect: Effect::SpeedDrift { initial_per_s: f64::from(shift) / half_s },
+                            effect: Effect::SpeedDrift { initial_per_s: f64::from(shift) / half_s, initial_rate_factor: mean_factor },
                             evidence: Evidence {
                                 summary: format!("the defect comb loses {:.1} dB more contrast at high orders than the model, and the defect rate moves by {:+.2} % between the record's halves: the speed drifts", low - high, 100.0 * shift),
                                 components: vec![],
@@ -739,7 +791,9 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
     if !has(model, "nonlinear_stiffness") {
         let fn_hz = model.get("ln_fn_hz").map_or(3000.0, f64::exp) as f32;
         let (lo, hi) = (0.75 * fn_hz, (1.25 * fn_hz).min(0.45 * fs));
-        let rate = model.fault.map_or(0.0, |loc| model.op.freqs.impact_rate(loc));
+        let rate = model
+            .fault
+            .map_or(0.0, |loc| model.op.freqs.impact_rate(loc));
         if let (true, Some((mh, mm)), Some((sh, sm))) = (
             rate > 0.0,
             ringdown_frequencies(ctx.x, fs, lo, hi, rate),
@@ -771,20 +825,4 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
 
     out.sort_by(|a, b| b.strength.total_cmp(&a.strength));
     out
-}
-
-
-#[cfg(test)]
-mod probe_tests {
-    use super::*;
-    use crate::twin::generate::{generate, Injected, Strength};
-
-    #[test]
-    fn print_amplitude_dependence() {
-        for e in [Injected::None, Injected::NonlinearStiffness] {
-            let x = generate(e, Strength::Realistic, 4.0, 1).unwrap();
-            let r = ringdown_frequencies(&x, 12000.0, 2250.0, 3750.0, 107.4);
-            eprintln!("{e:?}: {r:?}");
-        }
-    }
 }

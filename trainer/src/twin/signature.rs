@@ -43,7 +43,9 @@ impl SignatureConfig {
             },
             env_max_hz: 1000.0,
             psd_lo_hz: 20.0,
-            psd_hi_hz: 5000.0f32.min(0.45 * fs_hz),
+            // Below the band limit's transition (≈ 4.7–5.3 kHz for the 101-tap filter at
+            // 12 kHz), where the measurement chain and the model's are both flat.
+            psd_hi_hz: 4600.0f32.min(0.38 * fs_hz),
         }
     }
     /// Residual resolution: 4096-point PSD (2.9 Hz) to resolve lines.
