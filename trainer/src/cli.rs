@@ -635,7 +635,8 @@ fn clipped_fraction(x: &[f32]) -> f64 {
 pub fn run_twin_cwru(args: &TwinCwruArgs) -> Result<()> {
     use crate::data::manifest::read_manifest;
     use crate::twin::closed_loop::{run, LoopConfig, LoopInput};
-    let entries = read_manifest(&args.data).with_context(|| format!("read {}/MANIFEST.tsv", args.data.display()))?;
+    let entries = read_manifest(&args.data)
+        .with_context(|| format!("read {}/MANIFEST.tsv", args.data.display()))?;
     let wanted = |e: &crate::data::manifest::ManifestEntry| {
         e.load_hp == 0 || e.file_number == 236 || e.file_number == 237
     };
@@ -643,16 +644,38 @@ pub fn run_twin_cwru(args: &TwinCwruArgs) -> Result<()> {
     let mut details = String::new();
     let total = std::time::Instant::now();
     for entry in entries.iter().filter(|e| wanted(e)) {
-        let raw = load_recording(&entry.path, Some(entry.fs_hz), None).with_context(|| format!("load {}", entry.path.display()))?;
+        let raw = load_recording(&entry.path, Some(entry.fs_hz), None)
+            .with_context(|| format!("load {}", entry.path.display()))?;
         let rpm = raw.rpm.or(entry.rpm_recorded).context("rpm")?;
-        let clip = raw.channel("DE").map_or(0.0, |c| clipped_fraction(&c.samples));
+        let clip = raw
+            .channel("DE")
+            .map_or(0.0, |c| clipped_fraction(&c.samples));
         let rec = preprocess(&raw, &PreprocessConfig::default())?;
         let de = rec.channel("DE").context("DE channel")?;
-        let input = LoopInput { signal: de.samples.clone(), fs_hz: rec.fs_hz, rpm, bearing: BearingGeometry::CWRU_6205_DE };
+        let input = LoopInput {
+            signal: de.samples.clone(),
+            fs_hz: rec.fs_hz,
+            rpm,
+            bearing: BearingGeometry::CWRU_6205_DE,
+        };
         let (report, artifacts) = run(&input, &LoopConfig::default())?;
         let dir = args.reports.join(&raw.name);
-        crate::twin::report::write(&dir, &report, &artifacts, &kinematic_markers(&BearingGeometry::CWRU_6205_DE.frequencies(rpm / 60.0)))?;
-        println!("{} ({}): fault {}, effects {:?}, PSD {:.2} -> {:.2} dB, {:.1} s", raw.name, entry.label, report.fault, report.effects, report.error_initial.psd_log_rmse_db, report.error_final.psd_log_rmse_db, report.seconds);
+        crate::twin::report::write(
+            &dir,
+            &report,
+            &artifacts,
+            &kinematic_markers(&BearingGeometry::CWRU_6205_DE.frequencies(rpm / 60.0)),
+        )?;
+        println!(
+            "{} ({}): fault {}, effects {:?}, PSD {:.2} -> {:.2} dB, {:.1} s",
+            raw.name,
+            entry.label,
+            report.fault,
+            report.effects,
+            report.error_initial.psd_log_rmse_db,
+            report.error_final.psd_log_rmse_db,
+            report.seconds
+        );
         rows.push(format!(
             "| {} | {} | {} | {} | {:.2} → {:.2} | {:.3} → {:.3} | {} | {} | {:.2} % |",
             raw.name,
@@ -663,11 +686,22 @@ pub fn run_twin_cwru(args: &TwinCwruArgs) -> Result<()> {
             report.error_final.psd_log_rmse_db,
             report.error_initial.envelope_rmse,
             report.error_final.envelope_rmse,
-            if report.effects.is_empty() { "—".to_string() } else { report.effects.join(", ") },
-            if report.residual_noise_like { "yes" } else { "no" },
+            if report.effects.is_empty() {
+                "—".to_string()
+            } else {
+                report.effects.join(", ")
+            },
+            if report.residual_noise_like {
+                "yes"
+            } else {
+                "no"
+            },
             100.0 * clip,
         ));
-        details.push_str(&format!("\n### {} ({}, {} HP, {:.0} rpm)\n\n", raw.name, entry.label, entry.load_hp, rpm));
+        details.push_str(&format!(
+            "\n### {} ({}, {} HP, {:.0} rpm)\n\n",
+            raw.name, entry.label, entry.load_hp, rpm
+        ));
         details.push_str(&format!(
             "Fault hypothesis **{}** (envelope levels over the median: BPFO {:.1} dB, BPFI {:.1} dB, BSF {:.1} dB). Fit: f_n = {:.0} Hz, ζ = {:.3}. Stop: {}.\n\n",
             report.fault,
@@ -681,20 +715,37 @@ pub fn run_twin_cwru(args: &TwinCwruArgs) -> Result<()> {
         for s in &report.steps {
             details.push_str(&format!(
                 "- added `{}`: PSD {:.2} → {:.2} dB, envelope {:.3} → {:.3}. Evidence: {}\n",
-                s.effect, s.error_before.psd_log_rmse_db, s.error_after.psd_log_rmse_db, s.error_before.envelope_rmse, s.error_after.envelope_rmse, s.evidence.summary
+                s.effect,
+                s.error_before.psd_log_rmse_db,
+                s.error_after.psd_log_rmse_db,
+                s.error_before.envelope_rmse,
+                s.error_after.envelope_rmse,
+                s.evidence.summary
             ));
         }
         for r in &report.rejected {
-            details.push_str(&format!("- tried `{}`, rejected (cost {:.3} → {:.3}): {}\n", r.effect, r.cost_before, r.cost_after, r.evidence.summary));
+            details.push_str(&format!(
+                "- tried `{}`, rejected (cost {:.3} → {:.3}): {}\n",
+                r.effect, r.cost_before, r.cost_after, r.evidence.summary
+            ));
         }
         let left: Vec<String> = report
             .residual_components_final
             .iter()
             .take(6)
-            .map(|c| format!("{} {} at {:.0} Hz ({:.2}× shaft, +{:.1} dB)", c.domain, c.kind, c.f_hz, c.order, c.excess_db))
+            .map(|c| {
+                format!(
+                    "{} {} at {:.0} Hz ({:.2}× shaft, +{:.1} dB)",
+                    c.domain, c.kind, c.f_hz, c.order, c.excess_db
+                )
+            })
             .collect();
         if !left.is_empty() {
-            details.push_str(&format!("- residual left ({} components): {}\n", report.residual_components_final.len(), left.join("; ")));
+            details.push_str(&format!(
+                "- residual left ({} components): {}\n",
+                report.residual_components_final.len(),
+                left.join("; ")
+            ));
         }
     }
     let mut md = String::new();
@@ -706,7 +757,10 @@ pub fn run_twin_cwru(args: &TwinCwruArgs) -> Result<()> {
         md.push_str(r);
         md.push('\n');
     }
-    md.push_str(&format!("\nTotal wall time {:.0} s on one core.\n\n## Per record\n", total.elapsed().as_secs_f64()));
+    md.push_str(&format!(
+        "\nTotal wall time {:.0} s on one core.\n\n## Per record\n",
+        total.elapsed().as_secs_f64()
+    ));
     md.push_str(&details);
     md.push_str(KNOWN_CWRU);
     if let Some(dir) = args.out.parent() {

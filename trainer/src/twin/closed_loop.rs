@@ -50,11 +50,11 @@ impl Default for LoopConfig {
     fn default() -> Self {
         Self {
             max_steps: 5,
-            fit_seconds: 6.0,
+            fit_seconds: 3.0,
             residual_seconds: 6.0,
             max_record_seconds: 6.0,
             min_relative_gain: 0.03,
-            max_iter: 20,
+            max_iter: 12,
             seed: 0x7717,
             fault_threshold_db: 8.0,
         }
@@ -275,20 +275,22 @@ fn excess_line_amplitude(
 }
 
 /// Significant residual components that are not lines of the modelled defect's comb.
-fn unexplained(a: &ResidualAnalysis, model: &TwinModel) -> Vec<super::residual::Component> {
-    let comb = model.fault.map(|loc| {
-        f64::from(model.op.freqs.impact_rate(loc)) * (1.0 + model.get("rate_factor").unwrap_or(0.0))
-    });
+fn unexplained(
+    a: &ResidualAnalysis,
+    model: &TwinModel,
+    cfg: &SignatureConfig,
+    span_s: f64,
+) -> Vec<super::residual::Component> {
     a.psd
         .iter()
         .chain(a.envelope.iter())
         .filter(|c| {
-            let df = if c.domain == "psd" { 3.0 } else { 1.5 };
-            !(c.kind == "line"
-                && comb.is_some_and(|r| {
-                    let k = (c.f_hz / r).round();
-                    k >= 1.0 && (c.f_hz - k * r).abs() <= 2.0 * df + 0.002 * c.f_hz
-                }))
+            let n = if c.domain == "psd" {
+                cfg.psd_n
+            } else {
+                cfg.env_n
+            };
+            !super::residual::on_model_comb(model, c, f64::from(cfg.fs_hz) / n as f64, span_s)
         })
         .cloned()
         .collect()
@@ -373,6 +375,7 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
         max_iter: cfg.max_iter,
     };
     let n_res = span(cfg.residual_seconds);
+    let span_s = x.len() as f64 / f64::from(input.fs_hz);
 
     let (fault, fault_evidence) = identify_fault(&target, &op, cfg.fault_threshold_db);
     let (mut start, mut evaluations) = initial_model(&target, op, fault, &fit_cfg)?;
@@ -421,7 +424,7 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
             .into_iter()
             .filter(|c| !tried.contains(&c.effect.name().to_string()))
             .collect();
-        let significant = unexplained(&analysis, &current.model).len();
+        let significant = unexplained(&analysis, &current.model, &sig_res, span_s).len();
         last_analysis = analysis;
         if significant == 0 && candidates.is_empty() {
             residual_noise_like = true;
@@ -440,11 +443,14 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
             tried.push(cand.effect.name().to_string());
             let line_amp =
                 |f: f64| excess_line_amplitude(&target_res.meas, &sim_sig_now, &sig_res, f);
-            let trial = fit(
-                &current.model.with_effect(cand.effect.clone(), &line_amp),
-                &target,
-                &fit_cfg,
-            )?;
+            let start = current.model.with_effect(cand.effect.clone(), &line_amp);
+            // A drifting speed builds up over the whole record: simulate all of it.
+            let drifts = start.effects.iter().any(|(e, _)| e.name() == "speed_drift");
+            let trial_cfg = FitConfig {
+                n_sim: if drifts { n_res } else { fit_cfg.n_sim },
+                ..fit_cfg
+            };
+            let trial = fit(&start, &target, &trial_cfg)?;
             evaluations += trial.evaluations;
             // The effect must explain its own evidence (the statistic behind it halves,
             // or the lines drop by 3 dB) and lower the global error by at least 1 %; or it
@@ -509,7 +515,7 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
         residual_noise_like,
         stop_reason,
         rejected,
-        residual_components_final: unexplained(&last_analysis, &current.model),
+        residual_components_final: unexplained(&last_analysis, &current.model, &sig_res, span_s),
         seconds: t0.elapsed().as_secs_f64(),
         evaluations,
     };

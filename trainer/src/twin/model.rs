@@ -403,7 +403,8 @@ impl TwinModel {
             },
             random: RandomExcitation {
                 // Per half-step sample; scaled so the level does not depend on the step.
-                noise_std: get("ln_background").map_or(0.0, f64::exp) * (OVERSAMPLE as f64).sqrt(),
+                // Added below from the cached unit sequence (common random numbers).
+                noise_std: 0.0,
                 pulse_rate_hz: 0.0,
                 pulse_amplitude: 0.0,
                 pulse_sigma_s: IMPACT_SIGMA_S,
@@ -420,6 +421,13 @@ impl TwinModel {
         let mut force_r = vec![0.0f64; 2 * n_sim + 1];
         let mut force_t = vec![0.0f64; 2 * n_sim + 1];
         ex.render(grid, &mut force_r, &mut force_t, &mut rng)?;
+        // Background force: the same unit-variance sequence for every evaluation with
+        // this seed, scaled per half-step sample so the level does not depend on the step.
+        let bg = get("ln_background").map_or(0.0, f64::exp) * (OVERSAMPLE as f64).sqrt();
+        let unit = unit_normals(force_r.len(), seed ^ 0xF0_7CE);
+        for (f, u) in force_r.iter_mut().zip(unit.iter()) {
+            *f += bg * u;
+        }
         if let Some((Effect::ShaftHarmonics { orders }, p)) = self.effect_params("shaft_harmonics")
         {
             for (k, param) in orders.iter().zip(p) {
@@ -455,14 +463,26 @@ impl TwinModel {
             .zip(&acc_t)
             .map(|(a, b)| ((a + b) / f64::from(G)) as f32)
             .collect();
-        let mut taps = vec![0.0f32; 100 * OVERSAMPLE + 1];
+        // The measurement chain: a wide anti-alias filter (flat to the band limit) for
+        // the decimation, then the very band limit every measured record gets in
+        // preprocessing (`crate::data::preprocess`), so model and record share the
+        // band-edge shape.
+        let mut taps = vec![0.0f32; 50 * OVERSAMPLE + 1];
         design_lowpass(
-            BAND_LIMIT_HZ.min(0.45 * self.op.fs_hz),
+            (BAND_LIMIT_HZ + 600.0).min(0.46 * self.op.fs_hz),
             fs_sim as f32,
             &mut taps,
         )?;
-        let mut y = vec![0.0f32; decimated_len(n_sim, OVERSAMPLE)];
-        filter_decimate(&y_sim, &taps, OVERSAMPLE, &mut y)?;
+        let mut y_aa = vec![0.0f32; decimated_len(n_sim, OVERSAMPLE)];
+        filter_decimate(&y_sim, &taps, OVERSAMPLE, &mut y_aa)?;
+        let mut band = vec![0.0f32; crate::data::preprocess::BAND_LIMIT_TAPS];
+        design_lowpass(
+            BAND_LIMIT_HZ.min(0.45 * self.op.fs_hz),
+            self.op.fs_hz,
+            &mut band,
+        )?;
+        let mut y = vec![0.0f32; y_aa.len()];
+        filter_decimate(&y_aa, &band, 1, &mut y)?;
         y.truncate(n_out);
         y.drain(..n_warm);
 
@@ -493,11 +513,36 @@ impl TwinModel {
             add_band_noise(&mut y, fs, *f_hz, *bandwidth_hz, p[0].value.exp(), &mut rng);
         }
         let noise = get("ln_meas_noise").map_or(0.0, f64::exp);
-        for v in y.iter_mut() {
-            *v += (noise * rng.normal()) as f32;
+        let unit_y = unit_normals(y.len(), seed ^ 0x0_15E);
+        for (j, v) in y.iter_mut().enumerate() {
+            *v += (noise * unit_y[j]) as f32;
         }
         Ok(y)
     }
+}
+
+/// A unit-variance Gaussian sequence of `n` values for `seed`, generated once per
+/// thread and reused: the fit evaluates the model hundreds of times with the same
+/// random numbers, and drawing them costs more than the RK4 integration.
+fn unit_normals(n: usize, seed: u64) -> std::rc::Rc<Vec<f64>> {
+    use std::cell::RefCell;
+    use std::rc::Rc;
+    thread_local! {
+        static CACHE: RefCell<Vec<(usize, u64, Rc<Vec<f64>>)>> = const { RefCell::new(Vec::new()) };
+    }
+    CACHE.with(|c| {
+        let mut c = c.borrow_mut();
+        if let Some((_, _, v)) = c.iter().find(|(len, s, _)| *len == n && *s == seed) {
+            return v.clone();
+        }
+        let mut rng = Xoshiro128pp::seed_from_u64(seed);
+        let v = Rc::new((0..n).map(|_| rng.normal()).collect::<Vec<f64>>());
+        if c.len() >= 8 {
+            c.remove(0);
+        }
+        c.push((n, seed, v.clone()));
+        v
+    })
 }
 
 /// Add white noise passed through a 2nd-order resonator (centre `f`, −3 dB bandwidth
