@@ -527,8 +527,10 @@ impl TwinModel {
 fn unit_normals(n: usize, seed: u64) -> std::rc::Rc<Vec<f64>> {
     use std::cell::RefCell;
     use std::rc::Rc;
+    /// `(length, seed, sequence)`, most recent last.
+    type Entry = (usize, u64, Rc<Vec<f64>>);
     thread_local! {
-        static CACHE: RefCell<Vec<(usize, u64, Rc<Vec<f64>>)>> = const { RefCell::new(Vec::new()) };
+        static CACHE: RefCell<Vec<Entry>> = const { RefCell::new(Vec::new()) };
     }
     CACHE.with(|c| {
         let mut c = c.borrow_mut();
