@@ -273,9 +273,9 @@ pub fn plot_record(rec: &Recording, dir: &Path, markers: &[(f32, String)]) -> Re
     Ok(())
 }
 
-/// `pumptwin features`: the core's node features and dynamic graphs for a record.
+/// A recording and what a user knows about it, shared by the commands that read one.
 #[derive(Debug, Clone, clap::Args)]
-pub struct FeaturesArgs {
+pub struct RecordArgs {
     /// Recording (.mat in CWRU layout, or .csv with a header row).
     #[arg(long)]
     pub input: PathBuf,
@@ -288,6 +288,47 @@ pub struct FeaturesArgs {
     /// Bearing: cwru-6205-de, cwru-6203-fe, or n,d,D,angle_deg.
     #[arg(long, default_value = "cwru-6205-de")]
     pub bearing: String,
+}
+
+/// A loaded record: as read, and preprocessed (model rate, common band limit).
+#[derive(Debug)]
+pub struct LoadedRecord {
+    /// As read from the file.
+    pub raw: Recording,
+    /// At the model rate with the common band limit.
+    pub rec: Recording,
+    /// Shaft speed, rpm (flag, else the file's).
+    pub rpm: f32,
+    /// Bearing geometry.
+    pub bearing: BearingGeometry,
+}
+
+impl RecordArgs {
+    /// Load, check and preprocess the record.
+    pub fn load(&self) -> Result<LoadedRecord> {
+        let raw = load_recording(&self.input, self.fs, self.rpm)
+            .with_context(|| format!("load {}", self.input.display()))?;
+        let rpm = self
+            .rpm
+            .or(raw.rpm)
+            .context("shaft speed unknown: pass --rpm")?;
+        let bearing = parse_bearing(&self.bearing)?;
+        let rec = preprocess(&raw, &PreprocessConfig::default()).context("preprocess")?;
+        Ok(LoadedRecord {
+            raw,
+            rec,
+            rpm,
+            bearing,
+        })
+    }
+}
+
+/// `pumptwin features`: the core's node features and dynamic graphs for a record.
+#[derive(Debug, Clone, clap::Args)]
+pub struct FeaturesArgs {
+    /// The recording.
+    #[command(flatten)]
+    pub record: RecordArgs,
     /// Node channels, in order (missing ones are masked and reported).
     #[arg(long, value_delimiter = ',', default_value = "DE,FE,BA")]
     pub channels: Vec<String>,
@@ -298,14 +339,12 @@ pub struct FeaturesArgs {
 
 /// Run `features`.
 pub fn run_features(args: &FeaturesArgs) -> Result<()> {
-    let raw = load_recording(&args.input, args.fs, args.rpm)
-        .with_context(|| format!("load {}", args.input.display()))?;
-    let rpm = args
-        .rpm
-        .or(raw.rpm)
-        .context("shaft speed unknown: pass --rpm")?;
-    let bearing = parse_bearing(&args.bearing)?;
-    let rec = preprocess(&raw, &PreprocessConfig::default()).context("preprocess")?;
+    let LoadedRecord {
+        raw,
+        rec,
+        rpm,
+        bearing,
+    } = args.record.load()?;
     let names: Vec<&str> = args.channels.iter().map(String::as_str).collect();
     let nodes: [&str; 3] = names[..].try_into().map_err(|_| {
         anyhow::anyhow!(
@@ -423,7 +462,7 @@ pub fn run_features(args: &FeaturesArgs) -> Result<()> {
     }
     if let Some(out) = &args.out {
         let json = serde_json::json!({
-            "input": args.input.display().to_string(),
+            "input": args.record.input.display().to_string(),
             "fs_hz": rec.fs_hz,
             "rpm": rpm,
             "nodes": nodes,
@@ -473,18 +512,9 @@ pub enum TwinCmd {
 /// `pumptwin twin loop`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct TwinLoopArgs {
-    /// Recording (.mat in CWRU layout, or .csv with a header row).
-    #[arg(long)]
-    pub input: PathBuf,
-    /// Sampling rate, Hz (required for CSV).
-    #[arg(long)]
-    pub fs: Option<f32>,
-    /// Nominal shaft speed, rpm (required unless the file carries it).
-    #[arg(long)]
-    pub rpm: Option<f32>,
-    /// Bearing: cwru-6205-de, cwru-6203-fe, or n,d,D,angle_deg.
-    #[arg(long, default_value = "cwru-6205-de")]
-    pub bearing: String,
+    /// The recording.
+    #[command(flatten)]
+    pub record: RecordArgs,
     /// Channel to model (default: DE if present, else the first).
     #[arg(long)]
     pub channel: Option<String>,
@@ -546,18 +576,16 @@ pub fn run_twin(cmd: &TwinCmd) -> Result<()> {
 
 fn run_twin_loop(args: &TwinLoopArgs) -> Result<()> {
     use crate::twin::closed_loop::{run, LoopConfig, LoopInput};
-    let raw = load_recording(&args.input, args.fs, args.rpm)
-        .with_context(|| format!("load {}", args.input.display()))?;
-    let rpm = args
-        .rpm
-        .or(raw.rpm)
-        .context("shaft speed unknown: pass --rpm")?;
-    let bearing = parse_bearing(&args.bearing)?;
-    let rec = preprocess(&raw, &PreprocessConfig::default()).context("preprocess")?;
+    let LoadedRecord {
+        raw,
+        rec,
+        rpm,
+        bearing,
+    } = args.record.load()?;
     let channel = match &args.channel {
         Some(name) => rec
             .channel(name)
-            .with_context(|| format!("no channel {name:?} in {}", args.input.display()))?,
+            .with_context(|| format!("no channel {name:?} in {}", args.record.input.display()))?,
         None => rec
             .channel("DE")
             .or(rec.channels.first())

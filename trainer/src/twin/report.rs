@@ -21,51 +21,33 @@ pub fn write(
         ("before", &a.initial, "first fit"),
         ("after", &a.final_, "final model"),
     ] {
-        let pairs = psd_pairs(a, sig);
-        let series = vec![
-            Series {
-                label: "measured".into(),
-                points: pairs.iter().map(|p| (p.0, p.1)).collect(),
-            },
-            Series {
-                label: format!("model ({when})"),
-                points: pairs.iter().map(|p| (p.0, p.2)).collect(),
-            },
-        ];
-        let title = format!("power spectrum, measured vs model ({when})");
-        line_plot(
+        let psd = PlotSpec {
+            title: "",
+            x_label: "frequency [Hz]",
+            y_label: "PSD [dB]",
+            y_db: false,
+            markers: &[],
+        };
+        plot_pair(
             &dir.join(format!("psd_{name}.png")),
-            &PlotSpec {
-                title: &title,
-                x_label: "frequency [Hz]",
-                y_label: "PSD [dB]",
-                y_db: false,
-                markers: &[],
-            },
-            &series,
+            "power spectrum",
+            &psd,
+            &psd_pairs(a, sig),
+            when,
         )?;
-        let pairs = envelope_pairs(a, sig);
-        let series = vec![
-            Series {
-                label: "measured".into(),
-                points: pairs.iter().map(|p| (p.0, p.1)).collect(),
-            },
-            Series {
-                label: format!("model ({when})"),
-                points: pairs.iter().map(|p| (p.0, p.2)).collect(),
-            },
-        ];
-        let title = format!("envelope spectrum, measured vs model ({when})");
-        line_plot(
+        let env = PlotSpec {
+            title: "",
+            x_label: "frequency [Hz]",
+            y_label: "envelope power",
+            y_db: false,
+            markers,
+        };
+        plot_pair(
             &dir.join(format!("envelope_{name}.png")),
-            &PlotSpec {
-                title: &title,
-                x_label: "frequency [Hz]",
-                y_label: "envelope power",
-                y_db: false,
-                markers,
-            },
-            &series,
+            "envelope spectrum",
+            &env,
+            &envelope_pairs(a, sig),
+            when,
         )?;
     }
     let series = vec![Series {
@@ -84,6 +66,36 @@ pub fn write(
             y_label: "dB",
             y_db: false,
             markers: &[],
+        },
+        &series,
+    )?;
+    Ok(())
+}
+
+/// One plot of `(f, measured, model)` triples: "<what>, measured vs model (<when>)".
+fn plot_pair(
+    path: &Path,
+    what: &str,
+    spec: &PlotSpec<'_>,
+    pairs: &[(f32, f32, f32)],
+    when: &str,
+) -> anyhow::Result<()> {
+    let series = [
+        Series {
+            label: "measured".into(),
+            points: pairs.iter().map(|p| (p.0, p.1)).collect(),
+        },
+        Series {
+            label: format!("model ({when})"),
+            points: pairs.iter().map(|p| (p.0, p.2)).collect(),
+        },
+    ];
+    let title = format!("{what}, measured vs model ({when})");
+    line_plot(
+        path,
+        &PlotSpec {
+            title: &title,
+            ..spec.clone()
         },
         &series,
     )?;

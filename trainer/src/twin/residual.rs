@@ -146,7 +146,42 @@ fn median(v: &mut [f32]) -> f32 {
     *m
 }
 
-/// Significant runs of `d[k]` over `bins`; `freq(k)` maps bins to Hz.
+/// Runs of `d[k] > thr` over `bins` as `(start, end, peak)` bin indices; with
+/// `bridge_single_dips` a run continues across one bin below the threshold.
+fn runs_above(
+    d: &[f32],
+    bins: &std::ops::RangeInclusive<usize>,
+    thr: f32,
+    bridge_single_dips: bool,
+) -> Vec<(usize, usize, usize)> {
+    let (lo, hi) = (*bins.start(), *bins.end());
+    let mut out = Vec::new();
+    let mut k = lo;
+    while k <= hi {
+        if d[k] <= thr {
+            k += 1;
+            continue;
+        }
+        let (start, mut end) = (k, k);
+        let mut j = k + 1;
+        while j <= hi && (d[j] > thr || (bridge_single_dips && j < hi && d[j + 1] > thr)) {
+            if d[j] > thr {
+                end = j;
+            }
+            j += 1;
+        }
+        let peak = (start..=end)
+            .max_by(|&a, &b| d[a].total_cmp(&d[b]))
+            .unwrap_or(start);
+        out.push((start, end, peak));
+        k = end + 1;
+    }
+    out
+}
+
+/// Significant runs of `d[k]` over `bins` (bin width `df`): above
+/// `median + max(6 dB, 5σ)`, σ from the MAD. Returns the components and the threshold
+/// over the median.
 pub fn significant_components(
     d: &[f32],
     bins: std::ops::RangeInclusive<usize>,
@@ -159,39 +194,21 @@ pub fn significant_components(
     let mut dev: Vec<f32> = bins.clone().map(|k| (d[k] - med).abs()).collect();
     let mad = 1.4826 * median(&mut dev);
     let thr = med + MIN_EXCESS_DB.max(MAD_K * mad);
-    let mut out = Vec::new();
-    let (lo, hi) = (*bins.start(), *bins.end());
-    let mut k = lo;
-    while k <= hi {
-        if d[k] <= thr {
-            k += 1;
-            continue;
-        }
-        let start = k;
-        let mut end = k;
-        let mut j = k + 1;
-        // Allow single-bin dips inside a run.
-        while j <= hi && (d[j] > thr || (j < hi && d[j + 1] > thr)) {
-            if d[j] > thr {
-                end = j;
+    let out = runs_above(d, &bins, thr, true)
+        .into_iter()
+        .map(|(start, end, peak)| {
+            let width_bins = end - start + 1;
+            let f = peak as f64 * df;
+            Component {
+                domain,
+                kind: if width_bins <= 4 { "line" } else { "band" },
+                f_hz: f,
+                width_hz: width_bins as f64 * df,
+                excess_db: d[peak] - med,
+                order: f / shaft_hz,
             }
-            j += 1;
-        }
-        let peak = (start..=end)
-            .max_by(|&a, &b| d[a].total_cmp(&d[b]))
-            .unwrap_or(start);
-        let width_bins = end - start + 1;
-        let f = peak as f64 * df;
-        out.push(Component {
-            domain,
-            kind: if width_bins <= 4 { "line" } else { "band" },
-            f_hz: f,
-            width_hz: width_bins as f64 * df,
-            excess_db: d[peak] - med,
-            order: f / shaft_hz,
-        });
-        k = end + 1;
-    }
+        })
+        .collect();
     (out, thr - med)
 }
 
@@ -285,8 +302,9 @@ pub fn analyse(
     }
 }
 
-/// Bands of the smoothed residual: runs at least 100 Hz wide more than 3 dB above
-/// its median.
+/// Bands of the smoothed residual: runs at least 100 Hz wide more than 3 dB above its
+/// median. A fixed 3 dB, not a MAD multiple: the smoothed residual of a structurally
+/// wrong model has a large MAD, which would hide exactly the bands that matter.
 fn significant_bands(
     d: &[f32],
     bins: std::ops::RangeInclusive<usize>,
@@ -295,38 +313,22 @@ fn significant_bands(
 ) -> (Vec<Component>, f32) {
     let mut vals: Vec<f32> = bins.clone().map(|k| d[k]).collect();
     let med = median(&mut vals);
-    // A fixed 3 dB over the median: the smoothed residual of a structurally wrong model
-    // has a large MAD, which would hide exactly the bands that matter.
     let thr = med + 3.0;
-    let mut out = Vec::new();
-    let (lo, hi) = (*bins.start(), *bins.end());
-    let mut k = lo;
-    while k <= hi {
-        if d[k] <= thr {
-            k += 1;
-            continue;
-        }
-        let start = k;
-        while k <= hi && d[k] > thr {
-            k += 1;
-        }
-        let end = k - 1;
-        let width = (end - start + 1) as f64 * df;
-        if width >= 100.0 {
-            let peak = (start..=end)
-                .max_by(|&a, &b| d[a].total_cmp(&d[b]))
-                .unwrap_or(start);
+    let out = runs_above(d, &bins, thr, false)
+        .into_iter()
+        .filter(|(start, end, _)| (end - start + 1) as f64 * df >= 100.0)
+        .map(|(start, end, peak)| {
             let f = peak as f64 * df;
-            out.push(Component {
+            Component {
                 domain: "psd",
                 kind: "band",
                 f_hz: f,
-                width_hz: width,
+                width_hz: (end - start + 1) as f64 * df,
                 excess_db: d[peak] - med,
                 order: f / shaft_hz,
-            });
-        }
-    }
+            }
+        })
+        .collect();
     (out, thr - med)
 }
 
