@@ -391,7 +391,28 @@ pub struct FeatureConfig {
     pub segments: usize,
 }
 
+/// Segments per window of the standard configuration.
+pub const STANDARD_SEGMENTS: usize = 8;
+
 impl FeatureConfig {
+    /// The configuration trainer and edge share: envelope band from 500 Hz to the band
+    /// limit (or 0.45·fs for slow rates), spectral features up to the band limit (or
+    /// fs/2), [`STANDARD_SEGMENTS`] segments. One definition, so a model is always fed
+    /// the features it was trained on.
+    pub fn standard(fs_hz: f32, shaft_hz: f32, orders: DefectOrders) -> Self {
+        Self {
+            fs_hz,
+            shaft_hz,
+            orders,
+            envelope_band: EnvelopeBand {
+                lo_hz: EnvelopeBand::DEFAULT.lo_hz,
+                hi_hz: crate::fir::BAND_LIMIT_HZ.min(0.45 * fs_hz),
+            },
+            band_limit_hz: crate::fir::BAND_LIMIT_HZ.min(0.5 * fs_hz),
+            segments: STANDARD_SEGMENTS,
+        }
+    }
+
     fn validate(&self, window: usize) -> Result<()> {
         let v = [
             self.fs_hz,

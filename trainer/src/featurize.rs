@@ -14,7 +14,7 @@ use pumptwin_core::graph::{build_dynamic_graphs, Adjacency, GraphConfig, NodeMas
 /// Samples per window.
 pub const WINDOW: usize = 2048;
 /// Segments (graph steps) per window.
-pub const SEGMENTS: usize = 8;
+pub const SEGMENTS: usize = pumptwin_core::features::STANDARD_SEGMENTS;
 
 /// Node features of one window: `[T][N][F]`, plus which nodes are present.
 #[derive(Debug, Clone, PartialEq)]
@@ -36,19 +36,10 @@ pub struct MaskCounts {
     pub rejected_signal: usize,
 }
 
-/// The feature configuration for a record at shaft rate `shaft_hz`.
+/// The feature configuration for a record at shaft rate `shaft_hz`: the core's
+/// [`FeatureConfig::standard`], the one the edge uses too.
 pub fn feature_config(fs_hz: f32, shaft_hz: f32, orders: DefectOrders) -> FeatureConfig {
-    FeatureConfig {
-        fs_hz,
-        shaft_hz,
-        orders,
-        envelope_band: EnvelopeBand {
-            lo_hz: 500.0,
-            hi_hz: BAND_LIMIT_HZ.min(0.45 * fs_hz),
-        },
-        band_limit_hz: BAND_LIMIT_HZ.min(0.5 * fs_hz),
-        segments: SEGMENTS,
-    }
+    FeatureConfig::standard(fs_hz, shaft_hz, orders)
 }
 
 /// Features of the windows starting at `starts` for nodes named `nodes`.

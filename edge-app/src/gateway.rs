@@ -1,0 +1,116 @@
+//! The run loop: a [`FrameSource`] through the [`Pipeline`] to JSON lines.
+
+use crate::candump::{FrameSource, SourceError};
+use crate::diagnosis::{DiagnoseError, Diagnoser};
+use crate::pace::Pacer;
+use crate::pipeline::{Health, Pipeline};
+use crate::report::window_json;
+use std::io::Write;
+
+/// Bad log lines reported individually before the rest are only counted.
+pub const BAD_LINES_SHOWN: u64 = 10;
+
+/// Why a run stopped early.
+#[non_exhaustive]
+#[derive(Debug, thiserror::Error)]
+pub enum GatewayError {
+    /// The frame source failed for good (I/O).
+    #[error(transparent)]
+    Source(SourceError),
+    /// The output could not be written.
+    #[error("writing window output: {0}")]
+    Output(#[from] std::io::Error),
+    /// A window could not be serialized.
+    #[error("serializing a window: {0}")]
+    Json(#[from] serde_json::Error),
+    /// The diagnoser failed.
+    #[error(transparent)]
+    Diagnose(#[from] DiagnoseError),
+}
+
+/// Pipeline, pacing and the optional diagnoser, run over a frame source.
+pub struct Gateway<'d> {
+    pipeline: Pipeline,
+    pacer: Pacer,
+    diagnoser: Option<Box<dyn Diagnoser + 'd>>,
+}
+
+impl std::fmt::Debug for Gateway<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Gateway")
+            .field("pipeline", &self.pipeline)
+            .field("pacer", &self.pacer)
+            .field(
+                "diagnoser",
+                &self.diagnoser.as_ref().map(|_| "dyn Diagnoser"),
+            )
+            .finish()
+    }
+}
+
+impl<'d> Gateway<'d> {
+    /// A gateway without a diagnoser (physics explanation and health only).
+    pub fn new(pipeline: Pipeline, pacer: Pacer) -> Self {
+        Self {
+            pipeline,
+            pacer,
+            diagnoser: None,
+        }
+    }
+
+    /// Add a diagnoser: its output goes into each window's `"diagnosis"`.
+    pub fn with_diagnoser(mut self, diagnoser: Box<dyn Diagnoser + 'd>) -> Self {
+        self.diagnoser = Some(diagnoser);
+        self
+    }
+
+    /// The pipeline (for its counters).
+    pub fn pipeline(&self) -> &Pipeline {
+        &self.pipeline
+    }
+
+    /// Run until `source` is exhausted: one JSON line per window to `out`, flushed per
+    /// line; bad log lines are counted, the first [`BAD_LINES_SHOWN`] described on
+    /// `log`. Returns the final counters.
+    pub fn run<S, W, L>(
+        &mut self,
+        source: &mut S,
+        out: &mut W,
+        log: &mut L,
+    ) -> Result<Health, GatewayError>
+    where
+        S: FrameSource + ?Sized,
+        W: Write + ?Sized,
+        L: Write + ?Sized,
+    {
+        while let Some(item) = source.next_frame() {
+            let frame = match item {
+                Ok(frame) => frame,
+                Err(e) if e.is_recoverable() => {
+                    self.pipeline.note_bad_line();
+                    let n = self.pipeline.health().bad_lines;
+                    if n <= BAD_LINES_SHOWN {
+                        writeln!(log, "pumptwin-edge: skipped: {e}")?;
+                    }
+                    if n == BAD_LINES_SHOWN {
+                        writeln!(log, "pumptwin-edge: further bad lines are only counted")?;
+                    }
+                    continue;
+                }
+                Err(e) => return Err(GatewayError::Source(e)),
+            };
+            self.pacer.wait_for(frame.ts_us);
+            for window in self.pipeline.push(&frame).windows {
+                let diagnosis = match self.diagnoser.as_mut() {
+                    Some(d) => Some(d.diagnose(&window)?),
+                    None => None,
+                };
+                let line = window_json(&window, diagnosis.as_ref())?;
+                out.write_all(line.as_bytes())?;
+                out.write_all(b"\n")?;
+                out.flush()?;
+            }
+        }
+        Ok(self.pipeline.health())
+    }
+}

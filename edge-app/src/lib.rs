@@ -1,0 +1,34 @@
+//! # pumptwin-edge
+//!
+//! The edge gateway's library: CAN frames → sensor map → per-channel rings → windows →
+//! the core's features and the envelope-spectrum physics explanation → one JSON
+//! object per window, with health counters. The binary `pumptwin-edge` is a thin
+//! command line over [`gateway::Gateway`].
+//!
+//! | module | what |
+//! |---|---|
+//! | [`candump`] | `candump -l` log lines → [`candump::Frame`]; the [`candump::FrameSource`] trait and [`candump::CandumpReplay`] |
+//! | [`sensor_map`] | TOML sensor map: machine (speed, bearing, fs) and channel layouts, validated |
+//! | [`ring`] | fixed-size sample ring addressed by absolute sample index |
+//! | [`pipeline`] | frame classification and health counters, windows, core features per channel |
+//! | [`explain`] | envelope peak → nearest kinematic line (shaft, BPFO, BPFI, BSF, FTF) |
+//! | [`report`] | the JSON line of a window |
+//! | [`diagnosis`] | the extension point for the trained model (`--model`, later) |
+//! | [`pace`] | replay at full speed or following the log's timestamps |
+//! | [`gateway`] | the run loop |
+//!
+//! Hardware sits behind [`candump::FrameSource`]: the SocketCAN source (`--can IFACE`)
+//! will be a second implementation, and tests script the bus with a third.
+
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod candump;
+pub mod diagnosis;
+pub mod explain;
+pub mod gateway;
+pub mod pace;
+pub mod pipeline;
+pub mod report;
+pub mod ring;
+pub mod sensor_map;

@@ -1,0 +1,719 @@
+//! Frames → per-channel sample rings → windows → the core's features and the physics
+//! explanation, with health counters for everything that did not go to plan.
+//!
+//! # Frames: every frame lands in exactly one bucket
+//!
+//! Checked in this order; the first that applies decides:
+//!
+//! | bucket | frame | its samples |
+//! |---|---|---|
+//! | `remote` | a remote request | none |
+//! | `error_frames` | an error frame | none |
+//! | `unknown_id` | an identifier the sensor map does not name | none |
+//! | `malformed` | a payload that does not fit its channel's layout | dropped |
+//! | `late` | timestamp earlier than the previous frame's (any id) | dropped |
+//! | `out_of_sequence` | sequence counter ≠ expected | **used** |
+//! | `used` | everything else | used |
+//!
+//! so `frames_total = used + out_of_sequence + unknown_id + malformed + late + remote
+//! + error_frames` ([`Health::frames_classified`]). Not frames, and so outside the sum:
+//! `lost_frames` (frames a counter jump says never arrived), `bad_lines` (log lines
+//! that are not frames), `realignments`, `windows`, `degraded_windows`.
+//!
+//! Why out-of-sequence frames are used: their payload is intact and current; what is
+//! wrong is what came before them. The counter re-synchronizes to the frame; a forward
+//! jump of 1–127 adds the jump to `lost_frames`; a larger jump reads as a backward step
+//! (a duplicate or reordered frame) and adds nothing. Either way the samples before and
+//! after do not join up, so the window holding the junction lists the channel under
+//! `discontinuous` and is `degraded`; its values are still computed, from the
+//! stitched samples. A dropped late frame marks the same junction. Late frames are
+//! dropped because their time is not trustworthy; the clock reference is the previous
+//! frame, so a clock step back costs one frame, not every frame after it.
+//!
+//! # Windows
+//!
+//! Channels are aligned by sample index (every channel samples at `fs_hz`). Window `n`
+//! is samples `[s, s + 2048)` with `s = n·1024` of every channel, cut as soon as every
+//! channel has written past `s + 2048`. Each channel keeps a ring of 4096 samples, so a
+//! channel can run up to 2048 samples ahead of the slowest; when a channel would
+//! overwrite samples the next window still needs, that window is cut anyway, and every
+//! channel that does not hold all of `[s, s + 2048)` is `missing` from it (a dropout:
+//! no value is made up for it; the window is `degraded`). A channel that falls behind
+//! the window grid this way re-joins, when its frames come back, at the position of the
+//! channel furthest ahead (`realignments`). A partial window at the end of the input is
+//! not reported.
+//!
+//! # Per channel and window
+//!
+//! ```text
+//! rows[t]        = node_features::<2048>(x, cfg)[t]   t = 0..8, FEATURE_NAMES order (model input)
+//! rms, kurtosis, crest_factor = TimeStats over the whole window
+//! env_*_db       = the envelope features of the rows (shared by all 8)
+//! envelope peak  = peak of envelope_spectrum(x) in 40–400 Hz, and its prominence (see explain)
+//! cfg            = fs, f_r = rpm/60, the bearing's orders, envelope band 500 Hz – min(5 kHz, 0.45·fs),
+//!                  band limit min(5 kHz, fs/2), 8 segments   (= trainer::featurize::feature_config)
+//! ```
+
+use crate::candump::{Frame, FrameKind};
+use crate::explain::{nearest_kinematic, Explanation, PEAK_BAND_HZ};
+use crate::ring::SampleRing;
+use crate::sensor_map::{Channel, LayoutError, Machine, SensorMap, MAX_SAMPLES_PER_FRAME};
+use pumptwin_core::features::{
+    envelope_spectrum, node_features, peak_frequency, FeatureConfig, FeatureScratch, TimeStats,
+    FEATURE_DIM, FEATURE_NAMES,
+};
+use pumptwin_core::fft::Complex32;
+use serde::Serialize;
+
+/// Samples per window.
+pub const WINDOW: usize = 2048;
+/// Samples between window starts (50 % overlap).
+pub const HOP: usize = WINDOW / 2;
+/// Segments (graph steps) per window.
+pub const SEGMENTS: usize = pumptwin_core::features::STANDARD_SEGMENTS;
+/// Ring size per channel.
+pub const RING: usize = 2 * WINDOW;
+const _: () = assert!(RING >= WINDOW + MAX_SAMPLES_PER_FRAME && HOP >= MAX_SAMPLES_PER_FRAME);
+
+const fn str_eq(a: &str, b: &str) -> bool {
+    let (a, b) = (a.as_bytes(), b.as_bytes());
+    if a.len() != b.len() {
+        return false;
+    }
+    let mut i = 0;
+    while i < a.len() {
+        if a[i] != b[i] {
+            return false;
+        }
+        i += 1;
+    }
+    true
+}
+
+/// Index of a feature in [`FEATURE_NAMES`]; a name the core does not have fails the
+/// build (every use is a `const`).
+pub const fn feature_index(name: &str) -> usize {
+    let mut i = 0;
+    while i < FEATURE_NAMES.len() {
+        if str_eq(FEATURE_NAMES[i], name) {
+            return i;
+        }
+        i += 1;
+    }
+    panic!("not a name in pumptwin_core::features::FEATURE_NAMES");
+}
+
+/// `env_shaft_db` in a feature row.
+pub const ENV_SHAFT_DB: usize = feature_index("env_shaft_db");
+/// `env_bpfo_db` in a feature row.
+pub const ENV_BPFO_DB: usize = feature_index("env_bpfo_db");
+/// `env_bpfi_db` in a feature row.
+pub const ENV_BPFI_DB: usize = feature_index("env_bpfi_db");
+/// `env_bsf_db` in a feature row.
+pub const ENV_BSF_DB: usize = feature_index("env_bsf_db");
+/// `env_kurtosis` in a feature row.
+pub const ENV_KURTOSIS: usize = feature_index("env_kurtosis");
+
+/// The feature configuration for `machine`: the core's [`FeatureConfig::standard`], the
+/// one the trainer uses, so a model sees the features it was trained on.
+pub fn feature_config(machine: &Machine) -> FeatureConfig {
+    FeatureConfig::standard(machine.fs_hz, machine.shaft_hz(), machine.bearing.orders())
+}
+
+/// Counters of what happened to frames and windows (see the module docs).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+pub struct Health {
+    /// Frames received.
+    pub frames_total: u64,
+    /// Frames whose samples were used, in sequence.
+    pub used: u64,
+    /// Frames with an unexpected sequence counter (samples used).
+    pub out_of_sequence: u64,
+    /// Frames with an identifier the sensor map does not name.
+    pub unknown_id: u64,
+    /// Frames whose payload does not fit the layout.
+    pub malformed: u64,
+    /// Frames with a timestamp before the previous frame's (dropped).
+    pub late: u64,
+    /// Remote frames.
+    pub remote: u64,
+    /// Error frames.
+    pub error_frames: u64,
+    /// Frames missing according to forward sequence-counter jumps (not in `frames_total`).
+    pub lost_frames: u64,
+    /// Log lines that are not frames (not in `frames_total`).
+    pub bad_lines: u64,
+    /// Channels re-joined after falling behind the window grid.
+    pub realignments: u64,
+    /// Windows reported.
+    pub windows: u64,
+    /// Windows reported as degraded.
+    pub degraded_windows: u64,
+}
+
+impl Health {
+    /// Sum of the frame buckets; equals `frames_total`.
+    pub fn frames_classified(&self) -> u64 {
+        self.used
+            + self.out_of_sequence
+            + self.unknown_id
+            + self.malformed
+            + self.late
+            + self.remote
+            + self.error_frames
+    }
+}
+
+impl std::fmt::Display for Health {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} frames: {} used, {} out of sequence ({} lost), {} unknown id, {} malformed, \
+             {} late, {} remote, {} error frames; {} bad lines; {} windows ({} degraded); \
+             {} channel re-alignments",
+            self.frames_total,
+            self.used,
+            self.out_of_sequence,
+            self.lost_frames,
+            self.unknown_id,
+            self.malformed,
+            self.late,
+            self.remote,
+            self.error_frames,
+            self.bad_lines,
+            self.windows,
+            self.degraded_windows,
+            self.realignments
+        )
+    }
+}
+
+/// The bucket one frame landed in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Disposition {
+    /// Samples used.
+    Used {
+        /// Channel index in the sensor map.
+        channel: usize,
+    },
+    /// Samples used after a sequence-counter jump.
+    OutOfSequence {
+        /// Channel index.
+        channel: usize,
+        /// Frames the jump says were lost (0 for a backward step).
+        lost: u8,
+    },
+    /// No channel has this identifier.
+    UnknownId,
+    /// The payload does not fit the channel's layout.
+    Malformed {
+        /// Channel index.
+        channel: usize,
+        /// How.
+        error: LayoutError,
+    },
+    /// Timestamp before the previous frame's; dropped.
+    Late {
+        /// Channel index.
+        channel: usize,
+    },
+    /// A remote frame.
+    Remote,
+    /// An error frame.
+    ErrorFrame,
+}
+
+/// What one channel contributed to a window.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ChannelOutcome {
+    /// Features computed.
+    Computed {
+        /// The features.
+        features: Box<ChannelFeatures>,
+        /// A discontinuity (lost, duplicate or dropped frames) lies inside the window.
+        discontinuous: bool,
+    },
+    /// The channel does not hold the whole window (dropout).
+    Missing,
+    /// The core rejected the samples (e.g. a constant, dead sensor).
+    Failed(pumptwin_core::Error),
+}
+
+/// Features of one channel over one window.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ChannelFeatures {
+    /// `node_features` rows, raw (not normalized), one per segment: the model input.
+    pub rows: [[f32; FEATURE_DIM]; SEGMENTS],
+    /// Time statistics of the whole window.
+    pub time: TimeStats,
+    /// Envelope-spectrum peak in [`PEAK_BAND_HZ`], Hz.
+    pub envelope_peak_hz: f32,
+    /// Its prominence over the median envelope-spectrum level, dB.
+    pub envelope_prominence_db: f32,
+}
+
+impl ChannelFeatures {
+    /// A window-level feature by index (the envelope features, shared by all rows).
+    pub fn envelope_feature(&self, index: usize) -> f32 {
+        self.rows[0][index]
+    }
+}
+
+/// One channel's part of a window.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ChannelWindow {
+    /// Channel name.
+    pub name: String,
+    /// What it contributed.
+    pub outcome: ChannelOutcome,
+}
+
+/// One window, all channels.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Window {
+    /// Window number, from 0.
+    pub index: u64,
+    /// Timestamp of the frame that completed (or forced) the window, s.
+    pub t_s: f64,
+    /// Absolute sample index of the first sample.
+    pub start_sample: u64,
+    /// Shaft rate used, Hz.
+    pub shaft_hz: f32,
+    /// Channels in sensor-map order.
+    pub channels: Vec<ChannelWindow>,
+    /// The physics explanation (`None` when no channel has features).
+    pub explanation: Option<Explanation>,
+    /// Counters as of this window.
+    pub health: Health,
+}
+
+impl Window {
+    /// Names of the channels missing from the window.
+    pub fn missing(&self) -> impl Iterator<Item = &str> {
+        self.channels
+            .iter()
+            .filter(|c| c.outcome == ChannelOutcome::Missing)
+            .map(|c| c.name.as_str())
+    }
+
+    /// Names of the channels with a discontinuity inside the window.
+    pub fn discontinuous(&self) -> impl Iterator<Item = &str> {
+        self.channels
+            .iter()
+            .filter(|c| {
+                matches!(
+                    c.outcome,
+                    ChannelOutcome::Computed {
+                        discontinuous: true,
+                        ..
+                    }
+                )
+            })
+            .map(|c| c.name.as_str())
+    }
+
+    /// Channels whose samples the core rejected, with the reason.
+    pub fn failed(&self) -> impl Iterator<Item = (&str, pumptwin_core::Error)> {
+        self.channels.iter().filter_map(|c| match c.outcome {
+            ChannelOutcome::Failed(e) => Some((c.name.as_str(), e)),
+            _ => None,
+        })
+    }
+
+    /// Features of the channel named `name`, if computed.
+    pub fn features(&self, name: &str) -> Option<&ChannelFeatures> {
+        self.channels
+            .iter()
+            .find(|c| c.name == name)
+            .and_then(|c| match &c.outcome {
+                ChannelOutcome::Computed { features, .. } => Some(features.as_ref()),
+                _ => None,
+            })
+    }
+
+    /// Any channel missing, failed or discontinuous.
+    pub fn is_degraded(&self) -> bool {
+        self.channels.iter().any(|c| {
+            !matches!(
+                c.outcome,
+                ChannelOutcome::Computed {
+                    discontinuous: false,
+                    ..
+                }
+            )
+        })
+    }
+}
+
+/// What [`Pipeline::push`] did with a frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Pushed {
+    /// The frame's bucket.
+    pub disposition: Disposition,
+    /// Windows completed by this frame: usually 0 or 1; up to 4 right after a
+    /// channel re-joins (the windows it missed are cut at once, listing it as missing).
+    pub windows: Vec<Window>,
+}
+
+#[derive(Debug)]
+struct ChannelState {
+    spec: Channel,
+    ring: Box<SampleRing<RING>>,
+    expected_seq: Option<u8>,
+    pending_gap: bool,
+}
+
+/// Caller-owned buffers of the core's transforms, one set for all channels.
+#[derive(Debug)]
+struct Scratch {
+    features: FeatureScratch<WINDOW>,
+    spectrum: [Complex32; WINDOW],
+    env: [f32; WINDOW],
+    env_spectrum: [f32; WINDOW / 2 + 1],
+    median: [f32; WINDOW / 2 + 1],
+}
+
+/// The gateway's signal path from frames to windows.
+#[derive(Debug)]
+pub struct Pipeline {
+    machine: Machine,
+    cfg: FeatureConfig,
+    channels: Vec<ChannelState>,
+    decoded: heapless::Vec<f32, MAX_SAMPLES_PER_FRAME>,
+    next_start: u64,
+    next_index: u64,
+    last_ts_us: Option<u64>,
+    health: Health,
+    window: Box<[f32; WINDOW]>,
+    scratch: Box<Scratch>,
+}
+
+impl Pipeline {
+    /// A pipeline for a validated sensor map.
+    pub fn new(map: SensorMap) -> Self {
+        let cfg = feature_config(&map.machine);
+        let channels = map
+            .channels
+            .into_iter()
+            .map(|spec| ChannelState {
+                spec,
+                ring: Box::new(SampleRing::new()),
+                expected_seq: None,
+                pending_gap: false,
+            })
+            .collect();
+        Self {
+            machine: map.machine,
+            cfg,
+            channels,
+            decoded: heapless::Vec::new(),
+            next_start: 0,
+            next_index: 0,
+            last_ts_us: None,
+            health: Health::default(),
+            window: Box::new([0.0; WINDOW]),
+            scratch: Box::new(Scratch {
+                features: FeatureScratch::new(),
+                spectrum: [Complex32::ZERO; WINDOW],
+                env: [0.0; WINDOW],
+                env_spectrum: [0.0; WINDOW / 2 + 1],
+                median: [0.0; WINDOW / 2 + 1],
+            }),
+        }
+    }
+
+    /// Counters so far.
+    pub fn health(&self) -> Health {
+        self.health
+    }
+
+    /// The machine.
+    pub fn machine(&self) -> &Machine {
+        &self.machine
+    }
+
+    /// The feature configuration in use.
+    pub fn feature_config(&self) -> &FeatureConfig {
+        &self.cfg
+    }
+
+    /// Channel names in sensor-map order.
+    pub fn channel_names(&self) -> impl Iterator<Item = &str> {
+        self.channels.iter().map(|c| c.spec.name.as_str())
+    }
+
+    /// Count a log line that was not a frame.
+    pub fn note_bad_line(&mut self) {
+        self.health.bad_lines += 1;
+    }
+
+    /// Take one frame: classify and count it, store its samples, and return the windows
+    /// it completed.
+    pub fn push(&mut self, frame: &Frame) -> Pushed {
+        self.health.frames_total += 1;
+        let late = self.last_ts_us.is_some_and(|t| frame.ts_us < t);
+        self.last_ts_us = Some(frame.ts_us);
+        let disposition = match frame.kind {
+            FrameKind::Remote { .. } => Disposition::Remote,
+            FrameKind::Error => Disposition::ErrorFrame,
+            FrameKind::Data => self.classify_data(frame, late),
+        };
+        let h = &mut self.health;
+        let store = match disposition {
+            Disposition::Used { channel } => {
+                h.used += 1;
+                Some(channel)
+            }
+            Disposition::OutOfSequence { channel, lost } => {
+                h.out_of_sequence += 1;
+                h.lost_frames += u64::from(lost);
+                Some(channel)
+            }
+            Disposition::UnknownId => {
+                h.unknown_id += 1;
+                None
+            }
+            Disposition::Malformed { .. } => {
+                h.malformed += 1;
+                None
+            }
+            Disposition::Late { .. } => {
+                h.late += 1;
+                None
+            }
+            Disposition::Remote => {
+                h.remote += 1;
+                None
+            }
+            Disposition::ErrorFrame => {
+                h.error_frames += 1;
+                None
+            }
+        };
+        let mut windows = Vec::new();
+        if let Some(channel) = store {
+            self.store(channel, frame.ts_us, &mut windows);
+        }
+        Pushed {
+            disposition,
+            windows,
+        }
+    }
+
+    /// Decode a data frame into `self.decoded` and decide its bucket; updates the
+    /// channel's sequence state.
+    fn classify_data(&mut self, frame: &Frame, late: bool) -> Disposition {
+        let Some(channel) = self.channels.iter().position(|c| c.spec.matches(frame)) else {
+            return Disposition::UnknownId;
+        };
+        let ch = &mut self.channels[channel];
+        let seq = match ch.spec.decode(&frame.data, frame.fd, &mut self.decoded) {
+            Ok(seq) => seq,
+            Err(error) => return Disposition::Malformed { channel, error },
+        };
+        if late {
+            // Its samples are dropped: the stream has a junction here, and the counter
+            // moves past the frame so the next one is not blamed for it.
+            ch.pending_gap = true;
+            if let Some(s) = seq {
+                ch.expected_seq = Some(s.wrapping_add(1));
+            }
+            return Disposition::Late { channel };
+        }
+        let Some(s) = seq else {
+            return Disposition::Used { channel };
+        };
+        let jump = ch.expected_seq.map_or(0, |e| s.wrapping_sub(e));
+        ch.expected_seq = Some(s.wrapping_add(1));
+        if jump == 0 {
+            Disposition::Used { channel }
+        } else {
+            ch.pending_gap = true;
+            Disposition::OutOfSequence {
+                channel,
+                lost: if jump < 128 { jump } else { 0 },
+            }
+        }
+    }
+
+    /// Append `self.decoded` to `channel`, cutting the windows that become due.
+    fn store(&mut self, channel: usize, ts_us: u64, windows: &mut Vec<Window>) {
+        let k = self.decoded.len() as u64;
+        if self.channels[channel].ring.written() < self.next_start {
+            // Fell behind the window grid (dropout, or a late start): re-join where the
+            // channel furthest ahead is, which is about "now".
+            let now = self
+                .channels
+                .iter()
+                .map(|c| c.ring.written())
+                .fold(self.next_start, u64::max);
+            let ch = &mut self.channels[channel];
+            ch.ring.restart_at(now);
+            ch.pending_gap = false;
+            self.health.realignments += 1;
+        }
+        while self.channels[channel].ring.written() + k > self.next_start + RING as u64 {
+            let w = self.cut_window(ts_us);
+            windows.push(w);
+        }
+        let ch = &mut self.channels[channel];
+        let mut gap = std::mem::take(&mut ch.pending_gap);
+        for &x in &self.decoded {
+            ch.ring.push(x, gap);
+            gap = false;
+        }
+        while self
+            .channels
+            .iter()
+            .all(|c| c.ring.written() >= self.next_start + WINDOW as u64)
+        {
+            let w = self.cut_window(ts_us);
+            windows.push(w);
+        }
+    }
+
+    /// Cut the window at `next_start` from every channel, compute, advance.
+    fn cut_window(&mut self, ts_us: u64) -> Window {
+        let start = self.next_start;
+        let mut channels = Vec::with_capacity(self.channels.len());
+        for ch in &self.channels {
+            let outcome = if !ch.ring.copy_out(start, &mut self.window[..]) {
+                ChannelOutcome::Missing
+            } else {
+                match analyse(&self.window, &self.cfg, &mut self.scratch) {
+                    Ok(features) => ChannelOutcome::Computed {
+                        features: Box::new(features),
+                        discontinuous: ch.ring.has_gap(start, WINDOW),
+                    },
+                    Err(e) => ChannelOutcome::Failed(e),
+                }
+            };
+            channels.push(ChannelWindow {
+                name: ch.spec.name.clone(),
+                outcome,
+            });
+        }
+        let explanation = self.explain(&channels);
+        let mut window = Window {
+            index: self.next_index,
+            t_s: ts_us as f64 / 1e6,
+            start_sample: start,
+            shaft_hz: self.cfg.shaft_hz,
+            channels,
+            explanation,
+            health: Health::default(),
+        };
+        self.next_start += HOP as u64;
+        self.next_index += 1;
+        self.health.windows += 1;
+        if window.is_degraded() {
+            self.health.degraded_windows += 1;
+        }
+        window.health = self.health;
+        window
+    }
+
+    /// The most prominent envelope peak among the computed channels, matched to the
+    /// bearing's kinematic lines.
+    fn explain(&self, channels: &[ChannelWindow]) -> Option<Explanation> {
+        let (name, f) = channels
+            .iter()
+            .filter_map(|c| match &c.outcome {
+                ChannelOutcome::Computed { features, .. }
+                    if features.envelope_prominence_db.is_finite() =>
+                {
+                    Some((c.name.as_str(), features.as_ref()))
+                }
+                _ => None,
+            })
+            .max_by(|a, b| {
+                a.1.envelope_prominence_db
+                    .total_cmp(&b.1.envelope_prominence_db)
+            })?;
+        let freqs = self.machine.bearing.frequencies(self.cfg.shaft_hz);
+        let df = self.cfg.fs_hz / WINDOW as f32;
+        let kinematic = nearest_kinematic(f.envelope_peak_hz, &freqs, df)?;
+        Some(Explanation {
+            channel: name.to_owned(),
+            peak_hz: f.envelope_peak_hz,
+            peak_order: f.envelope_peak_hz / self.cfg.shaft_hz,
+            prominence_db: f.envelope_prominence_db,
+            kinematic,
+        })
+    }
+}
+
+/// The core's features of one channel's window, and its envelope peak.
+fn analyse(
+    x: &[f32; WINDOW],
+    cfg: &FeatureConfig,
+    s: &mut Scratch,
+) -> Result<ChannelFeatures, pumptwin_core::Error> {
+    let mut rows = [[0.0f32; FEATURE_DIM]; SEGMENTS];
+    node_features(x, cfg, &mut s.features, &mut rows)?;
+    let time = TimeStats::compute(x)?;
+    envelope_spectrum(
+        x,
+        cfg.fs_hz,
+        cfg.envelope_band,
+        &mut s.spectrum,
+        &mut s.env,
+        &mut s.env_spectrum,
+    )?;
+    let spec = &s.env_spectrum;
+    let peak_hz = peak_frequency(spec, cfg.fs_hz, PEAK_BAND_HZ.0, PEAK_BAND_HZ.1)?;
+    let df = cfg.fs_hz / WINDOW as f32;
+    let k = (peak_hz / df).round() as usize;
+    let level = spec
+        .get(k.saturating_sub(1)..=(k + 1).min(spec.len() - 1))
+        .map_or(0.0, |b| b.iter().copied().fold(0.0, f32::max));
+    // Median over the same span as the core's envelope floor: 4 × the highest line.
+    let o = cfg.orders;
+    let max_f = o.bpfi.max(o.bpfo).max(o.bsf).max(1.0) * cfg.shaft_hz;
+    let k_floor = ((4.0 * max_f / df) as usize).clamp(1, spec.len() - 1);
+    let work = &mut s.median[..k_floor];
+    work.copy_from_slice(&spec[1..=k_floor]);
+    let (_, median, _) = work.select_nth_unstable_by(k_floor / 2, |a, b| a.total_cmp(b));
+    let prominence_db = if *median > 0.0 && level > 0.0 {
+        10.0 * (level / *median).log10()
+    } else {
+        f32::NAN
+    };
+    Ok(ChannelFeatures {
+        rows,
+        time,
+        envelope_peak_hz: peak_hz,
+        envelope_prominence_db: prominence_db,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn feature_indices_name_the_right_features() {
+        assert_eq!(FEATURE_NAMES[ENV_SHAFT_DB], "env_shaft_db");
+        assert_eq!(FEATURE_NAMES[ENV_BPFO_DB], "env_bpfo_db");
+        assert_eq!(FEATURE_NAMES[ENV_BPFI_DB], "env_bpfi_db");
+        assert_eq!(FEATURE_NAMES[ENV_BSF_DB], "env_bsf_db");
+        assert_eq!(FEATURE_NAMES[ENV_KURTOSIS], "env_kurtosis");
+    }
+
+    #[test]
+    fn feature_config_at_12_khz_is_the_default_band() {
+        let map = SensorMap::from_toml_str(
+            "[machine]\nrpm = 1797\nbearing = \"cwru-6205-de\"\nfs_hz = 12000\n\
+             [[channel]]\nname = \"DE\"\ncan_id = 0x101\nsamples_per_frame = 4\nscale = 0.001\n",
+        )
+        .unwrap();
+        let cfg = feature_config(&map.machine);
+        assert_eq!(
+            cfg.envelope_band,
+            pumptwin_core::features::EnvelopeBand::DEFAULT
+        );
+        assert_eq!(cfg.band_limit_hz, 5000.0);
+        assert_eq!(cfg.segments, 8);
+        assert!((cfg.shaft_hz - 29.95).abs() < 1e-4);
+    }
+}

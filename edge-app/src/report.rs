@@ -1,0 +1,140 @@
+//! One JSON object per window (one line of the JSON-lines output).
+//!
+//! ```text
+//! {
+//!   "t_s": 1700000000.170666,          timestamp of the frame that completed the window, s
+//!   "window": 0,                       window number
+//!   "start_sample": 0,                 first sample (per-channel index)
+//!   "status": "ok" | "degraded",
+//!   "missing": ["FE"],                 only when degraded: channels without the whole window
+//!   "discontinuous": ["DE"],           only when degraded: lost/duplicate/dropped frames inside
+//!   "failed": {"BA": "signal has zero variance"},  only when degraded: the core rejected the samples
+//!   "shaft_hz": 29.95,
+//!   "channels": {                      sensor-map order; only channels with features
+//!     "DE": {"rms", "kurtosis", "crest_factor", "env_shaft_db", "env_bpfo_db",
+//!            "env_bpfi_db", "env_bsf_db", "env_kurtosis", "envelope_peak_hz"}
+//!   },
+//!   "explanation": {"channel", "peak_hz", "peak_order", "prominence_db", "match",
+//!                   "harmonic", "match_hz", "error_pct", "within_tolerance"} | null,
+//!   "diagnosis": …,                    only with a Diagnoser (the model, later)
+//!   "health": {"frames_total", "used", "out_of_sequence", "unknown_id", "malformed",
+//!              "late", "remote", "error_frames", "lost_frames", "bad_lines",
+//!              "realignments", "windows", "degraded_windows"}
+//! }
+//! ```
+//!
+//! rms, kurtosis and crest factor are over the whole window; the `env_*` values are the
+//! core's envelope features (see `pipeline`); see `explain` for the explanation.
+
+use crate::explain::Explanation;
+use crate::pipeline::{
+    ChannelFeatures, ChannelOutcome, Health, Window, ENV_BPFI_DB, ENV_BPFO_DB, ENV_BSF_DB,
+    ENV_KURTOSIS, ENV_SHAFT_DB,
+};
+use serde::ser::{SerializeMap, Serializer};
+use serde::Serialize;
+
+/// `[(key, value)]` serialized as a JSON object in this order.
+#[derive(Debug)]
+struct Ordered<'a, V>(Vec<(&'a str, V)>);
+
+impl<V: Serialize> Serialize for Ordered<'_, V> {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut m = s.serialize_map(Some(self.0.len()))?;
+        for (k, v) in &self.0 {
+            m.serialize_entry(k, v)?;
+        }
+        m.end()
+    }
+}
+
+impl<V> Ordered<'_, V> {
+    fn is_empty(&self) -> bool {
+        self.0.is_empty()
+    }
+}
+
+#[derive(Debug, Serialize)]
+struct ChannelReport {
+    rms: f32,
+    kurtosis: f32,
+    crest_factor: f32,
+    env_shaft_db: f32,
+    env_bpfo_db: f32,
+    env_bpfi_db: f32,
+    env_bsf_db: f32,
+    env_kurtosis: f32,
+    envelope_peak_hz: f32,
+}
+
+impl From<&ChannelFeatures> for ChannelReport {
+    fn from(f: &ChannelFeatures) -> Self {
+        Self {
+            rms: f.time.rms,
+            kurtosis: f.time.kurtosis,
+            crest_factor: f.time.crest_factor,
+            env_shaft_db: f.envelope_feature(ENV_SHAFT_DB),
+            env_bpfo_db: f.envelope_feature(ENV_BPFO_DB),
+            env_bpfi_db: f.envelope_feature(ENV_BPFI_DB),
+            env_bsf_db: f.envelope_feature(ENV_BSF_DB),
+            env_kurtosis: f.envelope_feature(ENV_KURTOSIS),
+            envelope_peak_hz: f.envelope_peak_hz,
+        }
+    }
+}
+
+#[derive(Debug, Serialize)]
+struct WindowReport<'a> {
+    t_s: f64,
+    window: u64,
+    start_sample: u64,
+    status: &'static str,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    missing: Vec<&'a str>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    discontinuous: Vec<&'a str>,
+    #[serde(skip_serializing_if = "Ordered::is_empty")]
+    failed: Ordered<'a, String>,
+    shaft_hz: f32,
+    channels: Ordered<'a, ChannelReport>,
+    explanation: Option<&'a Explanation>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    diagnosis: Option<&'a serde_json::Value>,
+    health: &'a Health,
+}
+
+/// The JSON line (without newline) of `window`, with the diagnosis if there is one.
+pub fn window_json(
+    window: &Window,
+    diagnosis: Option<&serde_json::Value>,
+) -> serde_json::Result<String> {
+    let channels = window
+        .channels
+        .iter()
+        .filter_map(|c| match &c.outcome {
+            ChannelOutcome::Computed { features, .. } => {
+                Some((c.name.as_str(), ChannelReport::from(features.as_ref())))
+            }
+            _ => None,
+        })
+        .collect();
+    let report = WindowReport {
+        t_s: window.t_s,
+        window: window.index,
+        start_sample: window.start_sample,
+        status: if window.is_degraded() {
+            "degraded"
+        } else {
+            "ok"
+        },
+        missing: window.missing().collect(),
+        discontinuous: window.discontinuous().collect(),
+        failed: Ordered(window.failed().map(|(n, e)| (n, e.to_string())).collect()),
+        shaft_hz: window.shaft_hz,
+        channels: Ordered(channels),
+        explanation: window.explanation.as_ref(),
+        diagnosis,
+        health: &window.health,
+    };
+    serde_json::to_string(&report)
+}

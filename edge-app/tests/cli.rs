@@ -1,0 +1,99 @@
+//! The `pumptwin-edge` binary on files: output to --out (appended), summary on stderr,
+//! clear errors for bad input.
+
+mod common;
+
+use common::*;
+use std::path::PathBuf;
+use std::process::Command;
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("pumptwin-edge-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_pumptwin-edge"))
+}
+
+#[test]
+fn replays_a_log_into_a_jsonl_file() {
+    let dir = temp_dir("replay");
+    let m = map(MAP_DE_FE);
+    let n = 6_144;
+    let bpfi = bpfi_hz();
+    let signals = vec![
+        impact_signal(n, bpfi, 1.0, 0.05, 1),
+        impact_signal(n, bpfi, 0.3, 0.05, 2),
+    ];
+    let mut log = log_text(&encode(&m, &signals, 0));
+    log.push_str("(1700000009.000000) can0 this-is-not-a-frame\n");
+    std::fs::write(dir.join("run.log"), log).unwrap();
+    std::fs::write(dir.join("map.toml"), MAP_DE_FE).unwrap();
+    let out = dir.join("out.jsonl");
+    let _ = std::fs::remove_file(&out);
+    for _ in 0..2 {
+        let r = bin()
+            .arg("--replay")
+            .arg(dir.join("run.log"))
+            .arg("--sensors")
+            .arg(dir.join("map.toml"))
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .unwrap();
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+        assert!(r.stdout.is_empty());
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert!(err.contains("candump line"), "{err}");
+        assert!(err.contains("3072 frames: 3072 used"), "{err}");
+        assert!(err.contains("1 bad lines; 5 windows (0 degraded)"), "{err}");
+    }
+    // Appended, not overwritten: two runs, five windows each.
+    let text = std::fs::read_to_string(&out).unwrap();
+    let lines: Vec<serde_json::Value> = text
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(lines.len(), 10);
+    assert!(lines.iter().all(|w| w["explanation"]["match"] == "BPFI"));
+    // Standard output when there is no --out.
+    let r = bin()
+        .args(["--replay", "-", "--sensors"])
+        .arg(dir.join("map.toml"))
+        .stdin(std::fs::File::open(dir.join("run.log")).unwrap())
+        .output()
+        .unwrap();
+    assert!(r.status.success());
+    assert_eq!(String::from_utf8_lossy(&r.stdout).lines().count(), 5);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_inputs_fail_with_a_clear_message() {
+    let dir = temp_dir("bad");
+    std::fs::write(dir.join("dup.toml"), MAP_DE_FE.replace("0x102", "0x101")).unwrap();
+    let r = bin()
+        .arg("--replay")
+        .arg(dir.join("missing.log"))
+        .arg("--sensors")
+        .arg(dir.join("dup.toml"))
+        .output()
+        .unwrap();
+    assert!(!r.status.success());
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(err.contains("both use CAN id 0x101"), "{err}");
+    std::fs::write(dir.join("ok.toml"), MAP_DE_FE).unwrap();
+    let r = bin()
+        .arg("--replay")
+        .arg(dir.join("missing.log"))
+        .arg("--sensors")
+        .arg(dir.join("ok.toml"))
+        .output()
+        .unwrap();
+    assert!(!r.status.success());
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert!(err.contains("opening candump log"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
