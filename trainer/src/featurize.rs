@@ -6,9 +6,8 @@
 use crate::data::record::Recording;
 use pumptwin_core::bearing::DefectOrders;
 use pumptwin_core::features::{
-    node_features, EnvelopeBand, FeatureConfig, FeatureNorm, FeatureScratch, FEATURE_DIM,
+    node_features, FeatureConfig, FeatureNorm, FeatureScratch, FEATURE_DIM,
 };
-use pumptwin_core::fir::BAND_LIMIT_HZ;
 use pumptwin_core::graph::{build_dynamic_graphs, Adjacency, GraphConfig, NodeMask};
 
 /// Samples per window.
