@@ -27,6 +27,42 @@ pub enum Error {
     /// A masked reduction (softmax row, attention pooling) has no present entry:
     /// every node or neighbour is masked out.
     NothingPresent,
+    /// A model file does not start with the magic bytes `PTWINMDL`.
+    ModelMagic,
+    /// A model file has a format version this core does not read.
+    ModelVersion {
+        /// Version in the file.
+        found: u16,
+        /// The version this core reads.
+        supported: u16,
+    },
+    /// A model file is shorter than its header (or its header's payload length) says.
+    ModelTruncated {
+        /// Length the file needs.
+        expected: usize,
+        /// Length it has.
+        got: usize,
+    },
+    /// A model file has bytes after its checksum.
+    ModelTrailingBytes {
+        /// Number of bytes after the end of the file its header declares.
+        extra: usize,
+    },
+    /// A model file's CRC-32 over the payload does not match the stored one.
+    ModelChecksum {
+        /// CRC stored in the file.
+        stored: u32,
+        /// CRC computed over the payload.
+        computed: u32,
+    },
+    /// A model file's payload is not a postcard encoding of the model (why).
+    ModelDecode(&'static str),
+    /// A model file's dimensions disagree with each other, with its buffers' lengths
+    /// or with the core's compile-time maxima, or with the sizes asked for (which).
+    ModelDimensions(&'static str),
+    /// A value in a model file is outside its domain: a non-finite or non-positive
+    /// scale, a feature std ≤ 0, an unphysical parameter (which).
+    ModelValue(&'static str),
 }
 
 /// Result alias for the core.
@@ -44,6 +80,24 @@ impl core::fmt::Display for Error {
             Error::Degenerate => f.write_str("signal has zero variance"),
             Error::Diverged { step } => write!(f, "integration diverged at step {step}"),
             Error::NothingPresent => f.write_str("every entry of a masked reduction is absent"),
+            Error::ModelMagic => f.write_str("not a model file (magic bytes are not PTWINMDL)"),
+            Error::ModelVersion { found, supported } => write!(
+                f,
+                "model file format version {found}, this core reads version {supported}"
+            ),
+            Error::ModelTruncated { expected, got } => {
+                write!(f, "model file truncated: {got} bytes, expected {expected}")
+            }
+            Error::ModelTrailingBytes { extra } => {
+                write!(f, "model file has {extra} bytes after its checksum")
+            }
+            Error::ModelChecksum { stored, computed } => write!(
+                f,
+                "model file checksum mismatch: stored {stored:#010x}, computed {computed:#010x}"
+            ),
+            Error::ModelDecode(why) => write!(f, "model file payload does not decode: {why}"),
+            Error::ModelDimensions(what) => write!(f, "model file dimensions: {what}"),
+            Error::ModelValue(what) => write!(f, "model file value out of domain: {what}"),
         }
     }
 }

@@ -13,6 +13,7 @@
 //! | [`features`] | time, spectral and envelope-spectrum node features | eq. 9, Table 3 |
 //! | [`graph`] | dynamic sparse sensor graph: prior ⊕ Pearson, threshold, normalization | eqs. 1–3 |
 //! | [`quant`] | int8 DS-STGAT kernels (linear, LUTs, softmax, GAT, GRU, pooling, classifier) with float references | eqs. 4–8 |
+//! | [`model_file`] | the postcard model file: header, CRC-32, fixed-capacity payload, checked decoding into the [`quant`] kernels | §4.2 (the trained DS-STGAT) |
 //! | [`rng`] | seeded PRNG (xoshiro128++), Gaussian and Poisson draws | §5.2 random excitation |
 //!
 //! Memory: every function writes into buffers the caller owns; nothing allocates.
@@ -34,6 +35,7 @@ pub mod fft;
 pub mod fir;
 pub mod graph;
 mod math;
+pub mod model_file;
 pub mod quant;
 pub mod rng;
 pub mod simulator;

@@ -161,6 +161,19 @@ pub extern "C" fn probe_alloc_canary() -> usize {
     pumptwin_core::alloc_canary()
 }
 
+/// Decode a model file into a caller-owned model (no allocation, no panic on bad bytes);
+/// returns the number of classes, or 0 for a rejected file.
+#[no_mangle]
+pub extern "C" fn probe_model_file(
+    bytes: &[u8; 1024],
+    model: &mut pumptwin_core::model_file::ModelFile,
+) -> u32 {
+    match pumptwin_core::model_file::decode_into(bytes, model) {
+        Ok(()) => u32::from(model.dims.classes),
+        Err(_) => 0,
+    }
+}
+
 /// In-place FFT of a caller buffer; returns the DC magnitude (−1 on error).
 #[no_mangle]
 pub extern "C" fn probe_fft(buf: &mut [Complex32; 64]) -> f32 {
