@@ -5,7 +5,11 @@
 
 pub mod cli;
 pub mod data;
+pub mod dataset;
 pub mod featurize;
+pub mod metrics;
+pub mod model;
 pub mod plot;
 pub mod sim;
+pub mod training;
 pub mod twin;

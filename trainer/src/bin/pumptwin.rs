@@ -10,6 +10,7 @@ use pumptwin_trainer::cli::{
 use pumptwin_trainer::data::preprocess::{PreprocessConfig, MODEL_FS_HZ};
 use pumptwin_trainer::data::summary::summarize;
 use pumptwin_trainer::data::windows::{Protocol, WindowConfig, DEFAULT_HOP, DEFAULT_WINDOW_LEN};
+use pumptwin_trainer::training::{run_eval, run_train, EvalArgs, TrainArgs};
 
 /// Physics-informed bearing fault diagnosis: data, training, evaluation, export.
 #[derive(Debug, Parser)]
@@ -32,6 +33,11 @@ enum Command {
     /// The closed loop between measurement and the bearing model.
     #[command(subcommand)]
     Twin(TwinCmd),
+    /// Train the DS-STGAT on a protocol's split and evaluate it (writes config.json,
+    /// model.bpk, metrics.json).
+    Train(TrainArgs),
+    /// Evaluate a trained DS-STGAT on a protocol's test side (metrics.json).
+    Eval(EvalArgs),
 }
 
 /// `pumptwin data …`
@@ -86,5 +92,7 @@ fn main() -> anyhow::Result<()> {
         Command::Simulate(args) => run_simulate(args),
         Command::Features(args) => run_features(args),
         Command::Twin(cmd) => run_twin(cmd),
+        Command::Train(args) => run_train(args),
+        Command::Eval(args) => run_eval(args),
     }
 }

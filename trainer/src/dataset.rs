@@ -1,0 +1,719 @@
+//! Training data for the DS-STGAT: every window of a protocol's split as the core's
+//! normalized node features, dynamic graphs, node mask and physical-indicator targets.
+//!
+//! The order of work (nothing is cached on disk):
+//!
+//! ```text
+//! MANIFEST.tsv → load every record → preprocess (model rate, common band limit)
+//!   → build_split(protocol) (leak-free, verified)
+//!   → raw node features per window          featurize::window_features (core)
+//!   → FeatureNorm fitted on TRAIN windows    featurize::fit_norm
+//!   → normalized x and graphs A_1..A_T       featurize::window_graphs (core, eqs. 1-3)
+//!   → indicator targets (eq. 13), z-scored with TRAIN statistics
+//! ```
+//!
+//! The test side is normalized with the train side's statistics, never its own.
+//! [`featurize_windows`] takes an optional [`NoiseSpec`] so the noise-robustness
+//! evaluation ([`crate::metrics`]) recomputes features and graphs from noisy signals
+//! through exactly the same path.
+//!
+//! # Shapes (per side, `W` windows, row-major)
+//! - `x`: `[W, T, N, F]` normalized node features (`T` = 8 steps, `N` = 3 nodes
+//!   DE/FE/BA, `F` = 20 features); an absent node's rows are 0
+//! - `adj`: `[W, T, N, N]` the core's normalized adjacency `Â_t` (row `i` = neighbours
+//!   of node `i`; an absent node keeps only its self-loop)
+//! - `mask`: `[W, N]` present nodes (the normal record 97 has no BA channel)
+//! - `indicators`: `[W, 4]` z-scored targets of the indicator head, see
+//!   [`indicator_targets`]
+//! - `label`, `record`: `[W]`
+
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use pumptwin_core::bearing::BearingGeometry;
+use pumptwin_core::features::{FeatureNorm, FEATURE_DIM};
+use pumptwin_core::graph::{Adjacency, GraphConfig};
+use pumptwin_core::rng::Xoshiro128pp;
+
+use crate::data::manifest::{read_manifest, ManifestEntry, ManifestError};
+use crate::data::preprocess::{preprocess, PreprocessConfig, PreprocessError};
+use crate::data::record::{load_cwru_mat, Channel, DataError, Recording};
+use crate::data::windows::{build_split, Protocol, RecordMeta, Split, SplitError, WindowConfig};
+use crate::data::WindowRef;
+use crate::featurize::{
+    feature_config, fit_norm, window_features, window_graphs, MaskCounts, WindowFeatures, SEGMENTS,
+    WINDOW,
+};
+
+/// Node channels, in node order.
+pub const NODES: [&str; N_NODES] = ["DE", "FE", "BA"];
+/// Number of graph nodes.
+pub const N_NODES: usize = 3;
+/// Graph steps per window (`T`).
+pub const STEPS: usize = SEGMENTS;
+/// Features per node and step (`F`).
+pub const FEATURES: usize = FEATURE_DIM;
+/// Physical indicators of the indicator head (eq. 13).
+pub const N_INDICATORS: usize = 4;
+/// Names of the indicators, in output order.
+pub const INDICATOR_NAMES: [&str; N_INDICATORS] = [
+    "impact_intensity",
+    "dominant_band_energy_ratio",
+    "adjacent_node_energy_difference_db",
+    "graph_embedding_inconsistency",
+];
+
+/// Index of `rms` in a feature row.
+const RMS: usize = 1;
+/// Index of `kurtosis` in a feature row.
+const KURTOSIS: usize = 3;
+/// Index of `band_energy_1` (the four band shares follow it).
+const BAND_ENERGY_1: usize = 11;
+
+/// Errors building a data set.
+#[non_exhaustive]
+#[derive(Debug, thiserror::Error)]
+pub enum DatasetError {
+    /// The manifest could not be read.
+    #[error(transparent)]
+    Manifest(#[from] ManifestError),
+    /// A listed record could not be loaded.
+    #[error("cannot load {label} ({})", path.display())]
+    Record {
+        /// CWRU label.
+        label: String,
+        /// File path.
+        path: PathBuf,
+        /// What went wrong.
+        #[source]
+        source: Box<DataError>,
+    },
+    /// A record cannot be brought to the model rate.
+    #[error("record {label} cannot be brought to the model rate")]
+    Preprocess {
+        /// CWRU label.
+        label: String,
+        /// What went wrong.
+        #[source]
+        source: PreprocessError,
+    },
+    /// Neither the file nor the manifest gives the shaft speed.
+    #[error("record {label}: shaft speed unknown (no RPM in the file or the manifest)")]
+    NoSpeed {
+        /// CWRU label.
+        label: String,
+    },
+    /// The split could not be built or failed its leak check.
+    #[error(transparent)]
+    Split(#[from] SplitError),
+    /// The core refused a window's graph construction.
+    #[error("record {record}, window at {start}: graph construction failed: {source:?}")]
+    Graph {
+        /// Record index.
+        record: usize,
+        /// Window start.
+        start: usize,
+        /// The core's error.
+        source: pumptwin_core::Error,
+    },
+    /// The split has no training windows.
+    #[error("protocol {0}: the split has no training windows")]
+    EmptyTrain(Protocol),
+}
+
+/// One manifest record, preprocessed.
+#[derive(Debug, Clone)]
+pub struct CorpusRecord {
+    /// Its manifest entry.
+    pub entry: ManifestEntry,
+    /// At the model rate with the common band limit.
+    pub rec: Recording,
+    /// Shaft rate in Hz (the file's RPM, else the manifest's, / 60).
+    pub shaft_hz: f32,
+}
+
+/// Every record of a data directory, preprocessed, in manifest order.
+#[derive(Debug, Clone)]
+pub struct Corpus {
+    /// The data directory.
+    pub data_dir: PathBuf,
+    /// Records in manifest order (indices are the split's record indices).
+    pub records: Vec<CorpusRecord>,
+    /// Seconds spent loading and preprocessing.
+    pub load_seconds: f64,
+}
+
+impl Corpus {
+    /// Load and preprocess every record listed in `data_dir/MANIFEST.tsv`.
+    pub fn load(data_dir: &Path, preprocess_cfg: &PreprocessConfig) -> Result<Self, DatasetError> {
+        let t0 = Instant::now();
+        let entries = read_manifest(data_dir)?;
+        let mut records = Vec::with_capacity(entries.len());
+        for entry in entries {
+            let raw = load_cwru_mat(
+                &entry.path,
+                Some(entry.file_number),
+                entry.fs_hz,
+                entry.rpm_recorded,
+            )
+            .map_err(|source| DatasetError::Record {
+                label: entry.label.clone(),
+                path: entry.path.clone(),
+                source: Box::new(source),
+            })?;
+            let rec =
+                preprocess(&raw, preprocess_cfg).map_err(|source| DatasetError::Preprocess {
+                    label: entry.label.clone(),
+                    source,
+                })?;
+            let rpm = rec
+                .rpm
+                .or(entry.rpm_recorded)
+                .ok_or_else(|| DatasetError::NoSpeed {
+                    label: entry.label.clone(),
+                })?;
+            records.push(CorpusRecord {
+                shaft_hz: rpm / 60.0,
+                entry,
+                rec,
+            });
+        }
+        Ok(Self {
+            data_dir: data_dir.to_path_buf(),
+            records,
+            load_seconds: t0.elapsed().as_secs_f64(),
+        })
+    }
+
+    /// What the splits need to know about each record.
+    pub fn metas(&self) -> Vec<RecordMeta> {
+        self.records
+            .iter()
+            .map(|r| RecordMeta::from_entry(&r.entry, r.rec.len()))
+            .collect()
+    }
+
+    /// The protocol's split, checked leak-free and in bounds.
+    pub fn split(&self, protocol: Protocol, windows: &WindowConfig) -> Result<Split, DatasetError> {
+        let split = build_split(protocol, &self.metas(), windows)?;
+        split.verify_disjoint()?;
+        let lens: Vec<usize> = self.records.iter().map(|r| r.rec.len()).collect();
+        split.verify_bounds(&lens)?;
+        Ok(split)
+    }
+}
+
+/// White Gaussian noise added to each window of each channel before featurization:
+/// `x + σ·n`, `n ~ N(0, 1)`, `σ² = mean(x²) · 10^(−snr_db/10)` with `mean(x²)` the
+/// power of that channel within that window (so the SNR holds per window).
+///
+/// The noise is added at the model rate, after the common band limit: it is white up
+/// to the model's Nyquist frequency, as sensor and ADC noise in the band would be.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NoiseSpec {
+    /// Signal-to-noise ratio in dB.
+    pub snr_db: f32,
+    /// Seed of the noise (each window draws from `seed` mixed with its position).
+    pub seed: u64,
+}
+
+/// Raw node features of `windows` (in their order), computed by the core on the
+/// corpus' signals (noisy ones if `noise` is given). Masked nodes are counted in
+/// `counts`.
+pub fn featurize_windows(
+    corpus: &Corpus,
+    windows: &[(WindowRef, usize)],
+    noise: Option<NoiseSpec>,
+    counts: &mut MaskCounts,
+) -> Vec<WindowFeatures<N_NODES>> {
+    let orders = BearingGeometry::CWRU_6205_DE.orders();
+    let records: BTreeSet<usize> = windows.iter().map(|(w, _)| w.record).collect();
+    let mut out: Vec<Option<WindowFeatures<N_NODES>>> = vec![None; windows.len()];
+    for record in records {
+        let r = &corpus.records[record];
+        let cfg = feature_config(r.rec.fs_hz, r.shaft_hz, orders);
+        let positions: Vec<usize> = (0..windows.len())
+            .filter(|&k| windows[k].0.record == record)
+            .collect();
+        let features = match noise {
+            None => {
+                let starts: Vec<usize> = positions.iter().map(|&k| windows[k].0.start).collect();
+                window_features(&r.rec, &NODES, &cfg, &starts, counts)
+            }
+            Some(spec) => {
+                // The noisy windows laid end to end in a scratch recording.
+                let noisy = noisy_windows(&r.rec, windows, &positions, spec);
+                let starts: Vec<usize> = (0..positions.len()).map(|k| k * WINDOW).collect();
+                let mut f = window_features(&noisy, &NODES, &cfg, &starts, counts);
+                for (w, &k) in f.iter_mut().zip(&positions) {
+                    w.start = windows[k].0.start;
+                }
+                f
+            }
+        };
+        for (w, &k) in features.into_iter().zip(&positions) {
+            out[k] = Some(w);
+        }
+    }
+    out.into_iter()
+        .map(|w| w.expect("every window belongs to a record"))
+        .collect()
+}
+
+/// A recording holding the windows at `positions` end to end, each with noise at
+/// `spec.snr_db` relative to its own power per channel.
+fn noisy_windows(
+    rec: &Recording,
+    windows: &[(WindowRef, usize)],
+    positions: &[usize],
+    spec: NoiseSpec,
+) -> Recording {
+    let channels = rec
+        .channels
+        .iter()
+        .enumerate()
+        .map(|(c, ch)| {
+            let mut samples = Vec::with_capacity(positions.len() * WINDOW);
+            for &k in positions {
+                let w = windows[k].0;
+                let x = &ch.samples[w.start..w.start + WINDOW];
+                let power = x.iter().map(|v| f64::from(*v).powi(2)).sum::<f64>() / WINDOW as f64;
+                let sigma = (power * 10f64.powf(-f64::from(spec.snr_db) / 10.0)).sqrt();
+                // One stream per (record, window start, channel): reproducible and
+                // independent of which other windows are evaluated.
+                let mut rng = Xoshiro128pp::seed_from_u64(
+                    spec.seed
+                        ^ (w.record as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
+                        ^ (w.start as u64).wrapping_mul(0xBF58_476D_1CE4_E5B9)
+                        ^ (c as u64 + 1).wrapping_mul(0x94D0_49BB_1331_11EB),
+                );
+                samples.extend(
+                    x.iter()
+                        .map(|&v| (f64::from(v) + sigma * rng.normal()) as f32),
+                );
+            }
+            Channel {
+                name: ch.name.clone(),
+                samples,
+            }
+        })
+        .collect();
+    Recording {
+        name: format!("{} + noise {} dB", rec.name, spec.snr_db),
+        fs_hz: rec.fs_hz,
+        rpm: rec.rpm,
+        channels,
+    }
+}
+
+/// The four physical indicators (eq. 13's `F`) of one window, unscaled:
+///
+/// ```text
+/// impact_intensity     = mean over present (t, i) of kurtosis_ti
+/// dominant_band_ratio  = mean over present (t, i) of max_b band_energy_b,ti
+/// node_energy_diff_db  = mean over t of 20·log10( rms_t,0 / mean_{j≠0 present} rms_t,j )
+///                        (0 when node 0 or every other node is absent)
+/// graph_inconsistency  = 1 − mean over t of mean_{i≠j, both present} Â_t,ij
+///                        (0 with fewer than two present nodes)
+/// ```
+///
+/// Computed from the raw (unnormalized) features and the core's adjacency.
+pub fn indicator_targets(
+    w: &WindowFeatures<N_NODES>,
+    adj: &[Adjacency<N_NODES>; STEPS],
+) -> [f32; N_INDICATORS] {
+    let present: Vec<usize> = (0..N_NODES).filter(|&i| w.mask.0[i]).collect();
+    if present.is_empty() {
+        return [0.0; N_INDICATORS];
+    }
+    let pairs = (STEPS * present.len()) as f64;
+    let mut kurt = 0.0f64;
+    let mut band = 0.0f64;
+    for step in &w.features {
+        for &i in &present {
+            kurt += f64::from(step[i][KURTOSIS]);
+            let shares = &step[i][BAND_ENERGY_1..BAND_ENERGY_1 + 4];
+            band += f64::from(shares.iter().copied().fold(f32::MIN, f32::max));
+        }
+    }
+    let others: Vec<usize> = present.iter().copied().filter(|&i| i != 0).collect();
+    let energy_db = if w.mask.0[0] && !others.is_empty() {
+        let mut sum = 0.0f64;
+        for step in &w.features {
+            let rms0 = f64::from(step[0][RMS]).max(1e-12);
+            let rest =
+                others.iter().map(|&j| f64::from(step[j][RMS])).sum::<f64>() / others.len() as f64;
+            sum += 20.0 * (rms0 / rest.max(1e-12)).log10();
+        }
+        sum / STEPS as f64
+    } else {
+        0.0
+    };
+    let inconsistency = if present.len() >= 2 {
+        let mut sum = 0.0f64;
+        let mut n = 0usize;
+        for a in adj {
+            for &i in &present {
+                for &j in &present {
+                    if i != j {
+                        sum += f64::from(a.0[i][j]);
+                        n += 1;
+                    }
+                }
+            }
+        }
+        1.0 - sum / n as f64
+    } else {
+        0.0
+    };
+    [
+        (kurt / pairs) as f32,
+        (band / pairs) as f32,
+        energy_db as f32,
+        inconsistency as f32,
+    ]
+}
+
+/// Mean and standard deviation of each indicator over the training windows; the head
+/// regresses z-scores so that no indicator's unit dominates the MSE.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct IndicatorNorm {
+    /// Means.
+    pub mean: [f32; N_INDICATORS],
+    /// Standard deviations (1 where the spread is zero).
+    pub std: [f32; N_INDICATORS],
+}
+
+impl IndicatorNorm {
+    /// Fit on unscaled indicator rows.
+    pub fn fit(rows: &[[f32; N_INDICATORS]]) -> Self {
+        let n = rows.len().max(1) as f64;
+        let mut mean = [0.0f32; N_INDICATORS];
+        let mut std = [1.0f32; N_INDICATORS];
+        for k in 0..N_INDICATORS {
+            let m = rows.iter().map(|r| f64::from(r[k])).sum::<f64>() / n;
+            let v = rows
+                .iter()
+                .map(|r| (f64::from(r[k]) - m).powi(2))
+                .sum::<f64>()
+                / n;
+            mean[k] = m as f32;
+            std[k] = if v > 1e-12 { v.sqrt() as f32 } else { 1.0 };
+        }
+        Self { mean, std }
+    }
+
+    /// z-score one row.
+    pub fn apply(&self, row: &[f32; N_INDICATORS]) -> [f32; N_INDICATORS] {
+        let mut out = [0.0; N_INDICATORS];
+        for k in 0..N_INDICATORS {
+            out[k] = (row[k] - self.mean[k]) / self.std[k];
+        }
+        out
+    }
+}
+
+/// One side of a split, as flat row-major arrays (see the module's `# Shapes`).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Dataset {
+    /// `[W, T, N, F]` normalized node features.
+    pub x: Vec<f32>,
+    /// `[W, T, N, N]` normalized adjacency.
+    pub adj: Vec<f32>,
+    /// `[W, N]` present nodes.
+    pub mask: Vec<bool>,
+    /// `[W, 4]` z-scored indicator targets.
+    pub indicators: Vec<f32>,
+    /// `[W]` class labels.
+    pub label: Vec<i64>,
+    /// `[W]` record index of each window.
+    pub record: Vec<usize>,
+}
+
+impl Dataset {
+    /// Values of `x` per window.
+    pub const X_PER_WINDOW: usize = STEPS * N_NODES * FEATURES;
+    /// Values of `adj` per window.
+    pub const ADJ_PER_WINDOW: usize = STEPS * N_NODES * N_NODES;
+
+    /// Number of windows.
+    pub fn len(&self) -> usize {
+        self.label.len()
+    }
+
+    /// Whether there are no windows.
+    pub fn is_empty(&self) -> bool {
+        self.label.is_empty()
+    }
+
+    /// Append a window.
+    pub fn push(
+        &mut self,
+        x: &[[[f32; FEATURES]; N_NODES]; STEPS],
+        adj: &[Adjacency<N_NODES>; STEPS],
+        mask: &[bool; N_NODES],
+        indicators: &[f32; N_INDICATORS],
+        label: usize,
+        record: usize,
+    ) {
+        self.x.extend(x.iter().flatten().flatten());
+        self.adj
+            .extend(adj.iter().flat_map(|a| a.0.iter().flatten()));
+        self.mask.extend_from_slice(mask);
+        self.indicators.extend_from_slice(indicators);
+        self.label.push(label as i64);
+        self.record.push(record);
+    }
+
+    /// Windows per class (`classes` entries).
+    pub fn windows_per_class(&self, classes: usize) -> Vec<usize> {
+        let mut n = vec![0; classes];
+        for &l in &self.label {
+            n[l as usize] += 1;
+        }
+        n
+    }
+
+    /// Distinct records per class (`classes` entries).
+    pub fn records_per_class(&self, classes: usize) -> Vec<usize> {
+        let mut sets = vec![BTreeSet::new(); classes];
+        for (&l, &r) in self.label.iter().zip(&self.record) {
+            sets[l as usize].insert(r);
+        }
+        sets.iter().map(BTreeSet::len).collect()
+    }
+
+    /// Distinct records.
+    pub fn n_records(&self) -> usize {
+        self.record.iter().collect::<BTreeSet<_>>().len()
+    }
+}
+
+/// Normalize raw window features with `norm`, build the core's graphs and the
+/// indicator targets, in the order of `windows`.
+pub fn assemble(
+    raw: &[WindowFeatures<N_NODES>],
+    windows: &[(WindowRef, usize)],
+    norm: &FeatureNorm,
+    indicator_norm: Option<&IndicatorNorm>,
+    graph: &GraphConfig<N_NODES>,
+) -> Result<(Dataset, Vec<[f32; N_INDICATORS]>), DatasetError> {
+    let mut ds = Dataset::default();
+    let mut unscaled = Vec::with_capacity(raw.len());
+    for (w, (wref, label)) in raw.iter().zip(windows) {
+        let (x, a) = window_graphs(w, norm, graph).map_err(|source| DatasetError::Graph {
+            record: wref.record,
+            start: wref.start,
+            source,
+        })?;
+        let ind = indicator_targets(w, &a);
+        unscaled.push(ind);
+        let scaled = indicator_norm.map_or(ind, |n| n.apply(&ind));
+        ds.push(&x, &a, &w.mask.0, &scaled, *label, wref.record);
+    }
+    Ok((ds, unscaled))
+}
+
+/// Everything training and evaluation need of one protocol.
+#[derive(Debug, Clone)]
+pub struct ProtocolData {
+    /// The protocol.
+    pub protocol: Protocol,
+    /// The split (window references and labels).
+    pub split: Split,
+    /// Feature normalization fitted on the training windows.
+    pub norm: FeatureNorm,
+    /// Indicator normalization fitted on the training windows.
+    pub indicator_norm: IndicatorNorm,
+    /// The graph construction used.
+    pub graph: GraphConfig<N_NODES>,
+    /// Training side.
+    pub train: Dataset,
+    /// Test side.
+    pub test: Dataset,
+    /// Masked node-windows, by cause, both sides.
+    pub mask_counts: MaskCounts,
+    /// Seconds spent computing features and graphs (both sides).
+    pub featurize_seconds: f64,
+}
+
+impl ProtocolData {
+    /// Build both sides of `protocol` from a loaded corpus. The normalizations are
+    /// fitted on the training side, unless `norms` gives them (e.g. the ones saved with
+    /// a trained model).
+    pub fn build(
+        corpus: &Corpus,
+        protocol: Protocol,
+        windows: &WindowConfig,
+        norms: Option<(FeatureNorm, IndicatorNorm)>,
+    ) -> Result<Self, DatasetError> {
+        let split = corpus.split(protocol, windows)?;
+        if split.train.is_empty() {
+            return Err(DatasetError::EmptyTrain(protocol));
+        }
+        let t0 = Instant::now();
+        let graph = GraphConfig::<N_NODES>::uniform();
+        let mut mask_counts = MaskCounts::default();
+        let raw_train = featurize_windows(corpus, &split.train, None, &mut mask_counts);
+        let raw_test = featurize_windows(corpus, &split.test, None, &mut mask_counts);
+        // Fitted on the training side only; the test side reuses it.
+        let norm = norms.map_or_else(|| fit_norm(&raw_train), |(n, _)| n);
+        let (mut train, train_ind) = assemble(&raw_train, &split.train, &norm, None, &graph)?;
+        let indicator_norm = norms.map_or_else(|| IndicatorNorm::fit(&train_ind), |(_, n)| n);
+        train.indicators = train_ind
+            .iter()
+            .flat_map(|r| indicator_norm.apply(r))
+            .collect();
+        let (test, _) = assemble(&raw_test, &split.test, &norm, Some(&indicator_norm), &graph)?;
+        Ok(Self {
+            protocol,
+            split,
+            norm,
+            indicator_norm,
+            graph,
+            train,
+            test,
+            mask_counts,
+            featurize_seconds: t0.elapsed().as_secs_f64(),
+        })
+    }
+
+    /// The test side rebuilt from noisy signals (features, graphs and indicators via
+    /// the core, with the *training* normalizations).
+    pub fn noisy_test(&self, corpus: &Corpus, noise: NoiseSpec) -> Result<Dataset, DatasetError> {
+        let mut counts = MaskCounts::default();
+        let raw = featurize_windows(corpus, &self.split.test, Some(noise), &mut counts);
+        let (ds, _) = assemble(
+            &raw,
+            &self.split.test,
+            &self.norm,
+            Some(&self.indicator_norm),
+            &self.graph,
+        )?;
+        Ok(ds)
+    }
+
+    /// Class names.
+    pub fn classes(&self) -> &[String] {
+        &self.split.classes
+    }
+
+    /// A table of windows and records per class and side.
+    pub fn counts_table(&self) -> String {
+        let c = self.classes().len();
+        let (tw, tr) = (
+            self.train.windows_per_class(c),
+            self.train.records_per_class(c),
+        );
+        let (ew, er) = (
+            self.test.windows_per_class(c),
+            self.test.records_per_class(c),
+        );
+        let mut s = format!(
+            "{:<8} {:>13} {:>13} {:>12} {:>12}\n",
+            "class", "train records", "train windows", "test records", "test windows"
+        );
+        for (k, name) in self.classes().iter().enumerate() {
+            s.push_str(&format!(
+                "{name:<8} {:>13} {:>13} {:>12} {:>12}\n",
+                tr[k], tw[k], er[k], ew[k]
+            ));
+        }
+        s.push_str(&format!(
+            "{:<8} {:>13} {:>13} {:>12} {:>12}\n",
+            "total",
+            self.train.n_records(),
+            self.train.len(),
+            self.test.n_records(),
+            self.test.len()
+        ));
+        s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use pumptwin_core::features::FEATURE_NAMES;
+    use pumptwin_core::graph::NodeMask;
+
+    #[test]
+    fn feature_indices_match_the_core() {
+        assert_eq!(FEATURE_NAMES[RMS], "rms");
+        assert_eq!(FEATURE_NAMES[KURTOSIS], "kurtosis");
+        assert_eq!(FEATURE_NAMES[BAND_ENERGY_1], "band_energy_1");
+        assert_eq!(FEATURE_NAMES[BAND_ENERGY_1 + 3], "band_energy_4");
+    }
+
+    #[test]
+    fn indicators_of_a_synthetic_window() {
+        let mut w = WindowFeatures::<N_NODES> {
+            start: 0,
+            features: [[[0.0; FEATURES]; N_NODES]; STEPS],
+            mask: NodeMask([true, true, false]),
+        };
+        for step in w.features.iter_mut() {
+            step[0][KURTOSIS] = 5.0;
+            step[1][KURTOSIS] = 3.0;
+            step[0][RMS] = 1.0;
+            step[1][RMS] = 0.1;
+            step[0][BAND_ENERGY_1 + 2] = 0.7;
+            step[1][BAND_ENERGY_1] = 0.5;
+            // The absent node's values must not count.
+            step[2][KURTOSIS] = 1000.0;
+        }
+        let mut a = [Adjacency::<N_NODES>::ZERO; STEPS];
+        for m in a.iter_mut() {
+            m.0 = [[0.5, 0.5, 0.0], [0.5, 0.5, 0.0], [0.0, 0.0, 1.0]];
+        }
+        let ind = indicator_targets(&w, &a);
+        assert!((ind[0] - 4.0).abs() < 1e-6, "{ind:?}");
+        assert!((ind[1] - 0.6).abs() < 1e-6, "{ind:?}");
+        assert!((ind[2] - 20.0).abs() < 1e-4, "{ind:?}");
+        assert!((ind[3] - 0.5).abs() < 1e-6, "{ind:?}");
+    }
+
+    #[test]
+    fn noise_has_the_asked_snr() {
+        let n = 4 * WINDOW;
+        let samples: Vec<f32> = (0..n).map(|i| (i as f32 * 0.05).sin()).collect();
+        let rec = Recording {
+            name: "tone".into(),
+            fs_hz: 12_000.0,
+            rpm: Some(1797.0),
+            channels: vec![Channel {
+                name: "DE".into(),
+                samples: samples.clone(),
+            }],
+        };
+        let windows: Vec<(WindowRef, usize)> = (0..3)
+            .map(|k| {
+                (
+                    WindowRef {
+                        record: 0,
+                        start: k * 1024,
+                        len: WINDOW,
+                    },
+                    0,
+                )
+            })
+            .collect();
+        let noisy = noisy_windows(
+            &rec,
+            &windows,
+            &[0, 1, 2],
+            NoiseSpec {
+                snr_db: 0.0,
+                seed: 7,
+            },
+        );
+        assert_eq!(noisy.len(), 3 * WINDOW);
+        let x = &samples[1024..1024 + WINDOW];
+        let y = &noisy.channels[0].samples[WINDOW..2 * WINDOW];
+        let ps: f64 = x.iter().map(|v| f64::from(*v).powi(2)).sum();
+        let pn: f64 = x.iter().zip(y).map(|(a, b)| f64::from(b - a).powi(2)).sum();
+        let snr = 10.0 * (ps / pn).log10();
+        assert!(snr.abs() < 0.3, "snr {snr}");
+    }
+}

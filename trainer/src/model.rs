@@ -1,0 +1,398 @@
+//! The DS-STGAT in burn (paper §4.2 and §4.4, eqs. 4–8 and 12–13): node embedding, a
+//! graph-attention layer per step over the core's dynamic graphs, a GRU over the
+//! steps per node, attention pooling over present (step, node) pairs, a compression
+//! layer, and two heads (class and physical indicators).
+//!
+//! ```text
+//! h⁰_ti   = ReLU(W_in x_ti + b_in)                                 embedding (eq. 9's f_embed)
+//! z_tj    = W h⁰_tj                                                GAT projection
+//! e_tij   = LeakyReLU_0.2(a_srcᵀ z_ti + a_dstᵀ z_tj)               (4)
+//! N_ti    = { j : i, j present, Â_t,ij > 0 }                      (self-loop: i ∈ N_ti)
+//! α_tij   = softmax_{j ∈ N_ti}(e_tij + ln Â_t,ij)                  (5) with the edge prior
+//!         = Â_t,ij·exp(e_tij) / Σ_{k ∈ N_ti} Â_t,ik·exp(e_tik)
+//! u_ti    = ReLU(Σ_j α_tij z_tj + b)   (0 for an absent node i)    (6)
+//! z_t     = σ(W_z u_t + b_z + U_z s_{t−1})                         (7a) per node, s_0 = 0
+//! r_t     = σ(W_r u_t + b_r + U_r s_{t−1})                         (7b)
+//! ñ_t     = tanh(W_n u_t + b_n + U_n (r_t ⊙ s_{t−1}))              (7c) reset before U
+//! s_t     = (1 − z_t) ⊙ s_{t−1} + z_t ⊙ ñ_t                        (7d)
+//! β_ti    = softmax over present (t, i) of (w_pᵀ s_ti + b_p)       attention pooling
+//! g       = Σ β_ti s_ti                                            g_system
+//! Z       = W_c g + b_c                                            (12) compression
+//! ŷ       = Softmax(W_o Z + b_o)                                   (8)  (logits returned)
+//! F       = W_f Z + b_f                                            (13) 4 indicators
+//! ```
+//!
+//! The GAT is exactly the core's [`pumptwin_core::quant::GatLayerF32`] (one head, edge
+//! weight as a multiplicative prior, ReLU, bias after aggregation, absent node → 0),
+//! the GRU the core's [`pumptwin_core::quant::GruCellF32`] (gate order z, r, n;
+//! biases on the input side only) and the pooling the core's
+//! [`pumptwin_core::quant::AttentionPoolF32`], so that an export maps each tensor onto
+//! a core kernel. `Z → ŷ` is linear, so the export can fold `W_o W_c` into the core's
+//! classifier on `g`.
+//!
+//! Absent nodes (a missing channel) are excluded, not zero-filled and forgotten: they
+//! receive no attention in the GAT (`j ∉ N_ti`), their GAT output is 0, and they get
+//! no weight in the pooling. Changing an absent node's inputs changes no output
+//! (tested).
+//!
+//! # Shapes
+//! - `x`: `[B, T, N, F]` normalized node features; `adj`: `[B, T, N, N]` (`Â_t`, row
+//!   `i` = neighbours of `i`); `mask`: `[B, N]` 1.0 present / 0.0 absent
+//! - logits: `[B, C]`; indicators: `[B, 4]`
+//!
+//! Burn's `Linear` stores its weight as `[d_in, d_out]` (`y = x W + b`); the core's
+//! matrices are `[out][in]`, so an export transposes.
+
+use burn::config::Config;
+use burn::module::{Module, Param};
+use burn::nn::{Linear, LinearConfig};
+use burn::tensor::activation::{leaky_relu, relu, sigmoid, softmax, tanh};
+use burn::tensor::{Device, Distribution, Tensor};
+
+/// The LeakyReLU slope of eq. 4 (as the core's GAT).
+pub const GAT_NEGATIVE_SLOPE: f64 = 0.2;
+/// The logit given to excluded pairs before a softmax: `exp(−1e9 − max)` is exactly 0
+/// in f32, so excluded pairs get exactly zero weight.
+pub const MASKED_LOGIT: f32 = -1e9;
+
+/// Dimensions of a DS-STGAT.
+#[derive(Config, Debug)]
+pub struct DsStgatConfig {
+    /// Features per node and step (`F`).
+    pub features: usize,
+    /// Classes (`C`).
+    pub classes: usize,
+    /// Hidden width of the embedding, GAT and GRU (`H`).
+    #[config(default = 32)]
+    pub hidden: usize,
+    /// Width of the compressed representation `Z` (eq. 12).
+    #[config(default = 16)]
+    pub compressed: usize,
+    /// Outputs of the indicator head (eq. 13).
+    #[config(default = 4)]
+    pub indicators: usize,
+}
+
+impl DsStgatConfig {
+    /// A freshly initialized model on `device`.
+    pub fn init(&self, device: &Device) -> DsStgat {
+        let h = self.hidden;
+        DsStgat {
+            embed: LinearConfig::new(self.features, h).init(device),
+            gat: GatLayer::new(h, h, device),
+            gru: Gru::new(h, h, device),
+            pool: AttentionPool {
+                score: LinearConfig::new(h, 1).init(device),
+            },
+            compress: LinearConfig::new(h, self.compressed).init(device),
+            classifier: LinearConfig::new(self.compressed, self.classes).init(device),
+            indicator: LinearConfig::new(self.compressed, self.indicators).init(device),
+        }
+    }
+}
+
+/// One graph-attention layer, eqs. 4–6 (see the module docs).
+///
+/// # Shapes
+/// - `w`: `[H_in, H]` (burn layout); `a_src`, `a_dst`, `bias`: `[H]`
+#[derive(Module, Debug)]
+pub struct GatLayer {
+    /// Projection `W` (no bias).
+    pub w: Linear,
+    /// Attention half for the node being updated (`i`).
+    pub a_src: Param<Tensor<1>>,
+    /// Attention half for the neighbour (`j`).
+    pub a_dst: Param<Tensor<1>>,
+    /// Bias after aggregation.
+    pub bias: Param<Tensor<1>>,
+}
+
+impl GatLayer {
+    /// Glorot-uniform attention vectors, zero bias.
+    pub fn new(d_in: usize, d_out: usize, device: &Device) -> Self {
+        let k = (6.0 / (d_out as f64 + 1.0)).sqrt();
+        let att = || {
+            Param::from_tensor(Tensor::<1>::random(
+                [d_out],
+                Distribution::Uniform(-k, k),
+                device,
+            ))
+        };
+        Self {
+            w: LinearConfig::new(d_in, d_out).with_bias(false).init(device),
+            a_src: att(),
+            a_dst: att(),
+            bias: Param::from_tensor(Tensor::<1>::zeros([d_out], device)),
+        }
+    }
+
+    /// Eqs. 4–6 on `G` graphs at once (the batch and the steps folded together).
+    ///
+    /// # Shapes
+    /// - `h`: `[G, N, H_in]`; `adj`: `[G, N, N]`; `mask`: `[G, N]` (1.0 present)
+    /// - returns `[G, N, H]`, zero rows for absent nodes
+    pub fn forward(&self, h: Tensor<3>, adj: Tensor<3>, mask: Tensor<2>) -> Tensor<3> {
+        let [g, n, _] = h.dims();
+        let z = self.w.forward(h); // [G, N, H]
+        let d = z.dims()[2];
+        let src = (z.clone() * self.a_src.val().reshape([1, 1, d])).sum_dim(2); // [G, N, 1]
+                                                                                // [G, 1, N]
+        let dst = (z.clone() * self.a_dst.val().reshape([1, 1, d]))
+            .sum_dim(2)
+            .swap_dims(1, 2);
+        // e_ij, [G, N, N]
+        let e = leaky_relu(src + dst, GAT_NEGATIVE_SLOPE);
+        // j ∈ N_i: an edge and a present neighbour (an absent i is zeroed below).
+        let neighbour = mask.clone().reshape([g, 1, n]);
+        let edge = adj.clone().greater_elem(0.0).float() * neighbour; // [G, N, N]
+        let prior = adj.clamp_min(1e-30).log(); // ln Â_ij where Â_ij > 0
+        let logits = (e + prior).mask_fill(edge.lower_elem(0.5), MASKED_LOGIT);
+        let alpha = softmax(logits, 2); // [G, N, N]  α_ij, rows sum to 1
+        let agg = alpha.matmul(z); // [G, N, H]
+        relu(agg + self.bias.val().reshape([1, 1, d])) * mask.reshape([g, n, 1])
+    }
+}
+
+/// GRU over the steps, run for every node of every window at once (eq. 7 in the
+/// paper's form, see the module docs).
+///
+/// # Shapes
+/// - `input`: `W_{z,r,n}` as one `[H_in, 3H]` weight with bias, columns `[z | r | n]`
+/// - `hidden_zr`: `U_{z,r}` as one `[H, 2H]` weight, columns `[z | r]`, no bias
+/// - `hidden_n`: `U_n`, `[H, H]`, no bias
+#[derive(Module, Debug)]
+pub struct Gru {
+    /// `W_z, W_r, W_n` with `b_z, b_r, b_n`.
+    pub input: Linear,
+    /// `U_z, U_r`.
+    pub hidden_zr: Linear,
+    /// `U_n` (applied to `r ⊙ s`).
+    pub hidden_n: Linear,
+}
+
+impl Gru {
+    /// Burn's default (Kaiming-uniform) initialization.
+    pub fn new(d_in: usize, d_hidden: usize, device: &Device) -> Self {
+        Self {
+            input: LinearConfig::new(d_in, 3 * d_hidden).init(device),
+            hidden_zr: LinearConfig::new(d_hidden, 2 * d_hidden)
+                .with_bias(false)
+                .init(device),
+            hidden_n: LinearConfig::new(d_hidden, d_hidden)
+                .with_bias(false)
+                .init(device),
+        }
+    }
+
+    /// All hidden states, from `s_0 = 0`.
+    ///
+    /// # Shapes
+    /// - `u`: `[B, T, N, H_in]`; returns `[B, T, N, H]`
+    pub fn forward(&self, u: Tensor<4>) -> Tensor<4> {
+        let [b, t, n, _] = u.dims();
+        let d = self.hidden_n.weight.val().dims()[0];
+        let device = u.device();
+        // The input side of every gate for every step in one matmul.
+        let gx = self.input.forward(u); // [B, T, N, 3H]
+        let mut s = Tensor::<2>::zeros([b * n, d], &device); // [B·N, H]
+        let mut states = Vec::with_capacity(t);
+        for step in 0..t {
+            let g = gx.clone().narrow(1, step, 1).reshape([b * n, 3 * d]); // [B·N, 3H]
+            let u_zr = self.hidden_zr.forward(s.clone()); // [B·N, 2H]
+            let z = sigmoid(g.clone().narrow(1, 0, d) + u_zr.clone().narrow(1, 0, d)); // (7a)
+            let r = sigmoid(g.clone().narrow(1, d, d) + u_zr.narrow(1, d, d)); // (7b)
+            let cand = tanh(g.narrow(1, 2 * d, d) + self.hidden_n.forward(r * s.clone())); // (7c)
+            s = s.clone() + z * (cand - s); // (7d) = (1 − z) ⊙ s + z ⊙ ñ
+            states.push(s.clone().reshape([b, n, d]));
+        }
+        Tensor::stack(states, 1) // [B, T, N, H]
+    }
+}
+
+/// Attention pooling over present (step, node) pairs into `g_system`.
+#[derive(Module, Debug)]
+pub struct AttentionPool {
+    /// Score `w_pᵀ s + b_p`, `[H, 1]`.
+    pub score: Linear,
+}
+
+impl AttentionPool {
+    /// `g` and the pooling weights `β`.
+    ///
+    /// # Shapes
+    /// - `s`: `[B, T, N, H]`; `mask`: `[B, N]` (1.0 present)
+    /// - returns `g`: `[B, H]` and `β`: `[B, T·N]` (step-major; zero for absent nodes)
+    pub fn forward(&self, s: Tensor<4>, mask: Tensor<2>) -> (Tensor<2>, Tensor<2>) {
+        let [b, t, n, d] = s.dims();
+        let score = self.score.forward(s.clone()).reshape([b, t * n]); // [B, T·N]
+        let present = mask.reshape([b, 1, n]).repeat_dim(1, t).reshape([b, t * n]); // [B, T·N]
+        let beta = softmax(score.mask_fill(present.lower_elem(0.5), MASKED_LOGIT), 1); // [B, T·N]
+        let g = beta
+            .clone()
+            .reshape([b, 1, t * n])
+            .matmul(s.reshape([b, t * n, d])) // [B, 1, H]
+            .reshape([b, d]);
+        (g, beta)
+    }
+}
+
+/// What the model returns.
+#[derive(Debug, Clone)]
+pub struct DsStgatOutput {
+    /// Class logits `W_o Z + b_o`, `[B, C]` (eq. 8 before the softmax).
+    pub logits: Tensor<2>,
+    /// Indicator predictions `F` (eq. 13), `[B, 4]`, in z-score units of the targets.
+    pub indicators: Tensor<2>,
+}
+
+/// The DS-STGAT (see the module docs).
+#[derive(Module, Debug)]
+pub struct DsStgat {
+    /// `W_in, b_in`: `[F, H]`.
+    pub embed: Linear,
+    /// The GAT layer (eqs. 4–6), shared by all steps.
+    pub gat: GatLayer,
+    /// The GRU (eq. 7), shared by all nodes.
+    pub gru: Gru,
+    /// Attention pooling.
+    pub pool: AttentionPool,
+    /// `W_c, b_c` (eq. 12): `[H, Z]`.
+    pub compress: Linear,
+    /// `W_o, b_o` (eq. 8): `[Z, C]`.
+    pub classifier: Linear,
+    /// `W_f, b_f` (eq. 13): `[Z, 4]`.
+    pub indicator: Linear,
+}
+
+impl DsStgat {
+    /// Forward pass.
+    ///
+    /// # Shapes
+    /// - `x`: `[B, T, N, F]`; `adj`: `[B, T, N, N]`; `mask`: `[B, N]` (1.0 present)
+    /// - returns logits `[B, C]` and indicators `[B, 4]`
+    pub fn forward(&self, x: Tensor<4>, adj: Tensor<4>, mask: Tensor<2>) -> DsStgatOutput {
+        let [b, t, n, _] = x.dims();
+        let h0 = relu(self.embed.forward(x)); // [B, T, N, H]
+        let d = h0.dims()[3];
+        // Every step of every window is one graph: fold T into the batch.
+        let mask_bt = mask
+            .clone()
+            .reshape([b, 1, n])
+            .repeat_dim(1, t)
+            .reshape([b * t, n]); // [B·T, N]
+        let u = self
+            .gat
+            .forward(
+                h0.reshape([b * t, n, d]),
+                adj.reshape([b * t, n, n]),
+                mask_bt,
+            )
+            .reshape([b, t, n, d]); // [B, T, N, H]
+        let s = self.gru.forward(u); // [B, T, N, H]
+        let (g, _) = self.pool.forward(s, mask); // [B, H]
+        let z = self.compress.forward(g); // [B, Z]  (12)
+        DsStgatOutput {
+            logits: self.classifier.forward(z.clone()), // [B, C]  (8)
+            indicators: self.indicator.forward(z),      // [B, 4]  (13)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use burn::tensor::TensorData;
+
+    fn tensor<const D: usize>(v: Vec<f32>, shape: [usize; D], device: &Device) -> Tensor<D> {
+        Tensor::<D>::from_data(TensorData::new(v, shape), device)
+    }
+
+    fn values<const D: usize>(t: Tensor<D>) -> Vec<f32> {
+        t.into_data().try_into_vec::<f32>().unwrap()
+    }
+
+    /// A deterministic pseudo-random vector.
+    fn ramp(n: usize, k: f32) -> Vec<f32> {
+        (0..n)
+            .map(|i| ((i as f32 * k).sin() * 1.7).fract())
+            .collect()
+    }
+
+    #[test]
+    fn gat_ignores_absent_nodes() {
+        let device = Device::flex();
+        device.seed(3);
+        let gat = GatLayer::new(5, 4, &device);
+        let (g, n) = (2, 3);
+        let mut adj = vec![0.0f32; g * n * n];
+        for k in 0..g {
+            // Fully connected; node 2 absent in graph 0 keeps only its self-loop.
+            for i in 0..n {
+                for j in 0..n {
+                    adj[k * 9 + i * 3 + j] = if k == 0 && (i == 2 || j == 2) && i != j {
+                        0.0
+                    } else {
+                        0.3 + 0.1 * (i + j) as f32
+                    };
+                }
+            }
+        }
+        // Graph 1 keeps the edges to node 2: the mask alone must exclude it.
+        let mask = vec![1.0, 1.0, 0.0, 1.0, 1.0, 0.0];
+        let h1 = ramp(g * n * 5, 0.7);
+        let mut h2 = h1.clone();
+        for k in 0..g {
+            for f in 0..5 {
+                h2[k * 15 + 2 * 5 + f] += 10.0 * (f as f32 + 1.0);
+            }
+        }
+        let run = |h: Vec<f32>| {
+            values(gat.forward(
+                tensor(h, [g, n, 5], &device),
+                tensor(adj.clone(), [g, n, n], &device),
+                tensor(mask.clone(), [g, n], &device),
+            ))
+        };
+        let (o1, o2) = (run(h1), run(h2));
+        assert_eq!(o1, o2, "an absent node's features leaked into an output");
+        // The absent node's own output is zero.
+        for k in 0..g {
+            assert!(o1[k * 12 + 8..k * 12 + 12].iter().all(|v| *v == 0.0));
+        }
+    }
+
+    #[test]
+    fn model_output_shapes_and_mask_invariance() {
+        let device = Device::flex();
+        device.seed(5);
+        let cfg = DsStgatConfig::new(6, 10).with_hidden(8).with_compressed(4);
+        let model = cfg.init(&device);
+        let (b, t, n, f) = (3, 4, 3, 6);
+        let x = ramp(b * t * n * f, 0.37);
+        let adj: Vec<f32> = (0..b * t * n * n)
+            .map(|k| if k % 4 == 0 { 0.0 } else { 0.4 })
+            .collect();
+        let mask = vec![1.0, 1.0, 0.0, 1.0, 1.0, 1.0, 1.0, 0.0, 1.0];
+        let run = |x: Vec<f32>| {
+            model.forward(
+                tensor(x, [b, t, n, f], &device),
+                tensor(adj.clone(), [b, t, n, n], &device),
+                tensor(mask.clone(), [b, n], &device),
+            )
+        };
+        let out = run(x.clone());
+        assert_eq!(out.logits.dims(), [b, 10]);
+        assert_eq!(out.indicators.dims(), [b, 4]);
+        // Perturb the absent nodes (window 0 node 2, window 2 node 1) at every step.
+        let mut x2 = x;
+        for step in 0..t {
+            for k in 0..f {
+                x2[(step * n + 2) * f + k] += 5.0;
+                x2[((2 * t + step) * n + 1) * f + k] -= 3.0;
+            }
+        }
+        let out2 = run(x2);
+        assert_eq!(values(out.logits), values(out2.logits));
+        assert_eq!(values(out.indicators), values(out2.indicators));
+    }
+}
