@@ -37,8 +37,8 @@ use pumptwin_core::graph::{Adjacency, GraphConfig};
 use pumptwin_core::rng::Xoshiro128pp;
 
 use crate::data::manifest::{read_manifest, ManifestEntry, ManifestError};
-use crate::data::preprocess::{preprocess, PreprocessConfig, PreprocessError};
-use crate::data::record::{load_cwru_mat, Channel, DataError, Recording};
+use crate::data::preprocess::{preprocess, PreprocessConfig};
+use crate::data::record::{load_entry, Channel, EntryError, Recording};
 use crate::data::windows::{build_split, Protocol, RecordMeta, Split, SplitError, WindowConfig};
 use crate::data::WindowRef;
 use crate::featurize::{
@@ -78,26 +78,9 @@ pub enum DatasetError {
     /// The manifest could not be read.
     #[error(transparent)]
     Manifest(#[from] ManifestError),
-    /// A listed record could not be loaded.
-    #[error("cannot load {label} ({})", path.display())]
-    Record {
-        /// CWRU label.
-        label: String,
-        /// File path.
-        path: PathBuf,
-        /// What went wrong.
-        #[source]
-        source: Box<DataError>,
-    },
-    /// A record cannot be brought to the model rate.
-    #[error("record {label} cannot be brought to the model rate")]
-    Preprocess {
-        /// CWRU label.
-        label: String,
-        /// What went wrong.
-        #[source]
-        source: PreprocessError,
-    },
+    /// A listed record cannot be used.
+    #[error(transparent)]
+    Entry(#[from] EntryError),
     /// Neither the file nor the manifest gives the shaft speed.
     #[error("record {label}: shaft speed unknown (no RPM in the file or the manifest)")]
     NoSpeed {
@@ -151,22 +134,9 @@ impl Corpus {
         let entries = read_manifest(data_dir)?;
         let mut records = Vec::with_capacity(entries.len());
         for entry in entries {
-            let raw = load_cwru_mat(
-                &entry.path,
-                Some(entry.file_number),
-                entry.fs_hz,
-                entry.rpm_recorded,
-            )
-            .map_err(|source| DatasetError::Record {
-                label: entry.label.clone(),
-                path: entry.path.clone(),
-                source: Box::new(source),
-            })?;
-            let rec =
-                preprocess(&raw, preprocess_cfg).map_err(|source| DatasetError::Preprocess {
-                    label: entry.label.clone(),
-                    source,
-                })?;
+            let raw = load_entry(&entry)?;
+            let rec = preprocess(&raw, preprocess_cfg)
+                .map_err(|source| EntryError::preprocess(&entry, source))?;
             let rpm = rec
                 .rpm
                 .or(entry.rpm_recorded)

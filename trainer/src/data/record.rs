@@ -16,7 +16,7 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use super::csv::{parse_csv, stem_name, CsvError};
-use super::manifest::{parse_manifest, ManifestError, MANIFEST_FILE};
+use super::manifest::{parse_manifest, ManifestEntry, ManifestError, MANIFEST_FILE};
 use super::mat::{read_mat, MatError, MatFile, MatVariable};
 use super::preprocess::PreprocessError;
 
@@ -637,4 +637,56 @@ pub(crate) mod tests {
         let r = load_recording(&dir.join("normal/97.mat"), None, None).expect("97.mat");
         assert_eq!(r.fs_hz, 48_000.0);
     }
+}
+
+/// A record listed in a manifest that cannot be used: it does not load, or it cannot be
+/// brought to the model rate. Shared by every command that walks a manifest.
+#[derive(Debug, thiserror::Error)]
+pub enum EntryError {
+    /// The file could not be loaded.
+    #[error("cannot load {label} ({})", path.display())]
+    Record {
+        /// CWRU label.
+        label: String,
+        /// File path.
+        path: PathBuf,
+        /// What went wrong (boxed: it is large and this path is cold).
+        #[source]
+        source: Box<DataError>,
+    },
+    /// The record cannot be brought to the model rate.
+    #[error("record {label} cannot be brought to the model rate")]
+    Preprocess {
+        /// CWRU label.
+        label: String,
+        /// What went wrong.
+        #[source]
+        source: PreprocessError,
+    },
+}
+
+impl EntryError {
+    /// A preprocessing failure of `entry`.
+    pub fn preprocess(entry: &ManifestEntry, source: PreprocessError) -> Self {
+        Self::Preprocess {
+            label: entry.label.clone(),
+            source,
+        }
+    }
+}
+
+/// Load the CWRU record a manifest entry lists: variables picked by its file number,
+/// rate and recorded speed from the manifest.
+pub fn load_entry(entry: &ManifestEntry) -> Result<Recording, EntryError> {
+    load_cwru_mat(
+        &entry.path,
+        Some(entry.file_number),
+        entry.fs_hz,
+        entry.rpm_recorded,
+    )
+    .map_err(|source| EntryError::Record {
+        label: entry.label.clone(),
+        path: entry.path.clone(),
+        source: Box::new(source),
+    })
 }

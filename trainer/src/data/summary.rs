@@ -10,10 +10,8 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 use super::manifest::{read_manifest, ManifestEntry, ManifestError, CLASSES_10};
-use super::preprocess::{
-    decimation_factor, model_rate_len, FilterPlan, PreprocessConfig, PreprocessError,
-};
-use super::record::{load_cwru_mat, DataError};
+use super::preprocess::{decimation_factor, model_rate_len, FilterPlan, PreprocessConfig};
+use super::record::{load_entry, EntryError};
 use super::windows::{
     build_split, Protocol, RecordMeta, Split, SplitError, WindowConfig, WindowRef,
 };
@@ -25,26 +23,9 @@ pub enum SummaryError {
     /// The manifest could not be read.
     #[error(transparent)]
     Manifest(#[from] ManifestError),
-    /// A listed record could not be loaded.
-    #[error("cannot load {label} ({})", path.display())]
-    Record {
-        /// CWRU label.
-        label: String,
-        /// File path.
-        path: PathBuf,
-        /// What went wrong (boxed: it is large and this path is cold).
-        #[source]
-        source: Box<DataError>,
-    },
-    /// A record cannot be brought to the model rate.
-    #[error("record {label} cannot be brought to the model rate")]
-    Preprocess {
-        /// CWRU label.
-        label: String,
-        /// What went wrong.
-        #[source]
-        source: PreprocessError,
-    },
+    /// A listed record cannot be used.
+    #[error(transparent)]
+    Entry(#[from] EntryError),
     /// A split could not be built or failed its check.
     #[error(transparent)]
     Split(#[from] SplitError),
@@ -94,21 +75,8 @@ pub fn summarize(
     let mut records = Vec::with_capacity(entries.len());
     let mut notes = Vec::new();
     for entry in entries {
-        let recording = load_cwru_mat(
-            &entry.path,
-            Some(entry.file_number),
-            entry.fs_hz,
-            entry.rpm_recorded,
-        )
-        .map_err(|source| SummaryError::Record {
-            label: entry.label.clone(),
-            path: entry.path.clone(),
-            source: Box::new(source),
-        })?;
-        let to_preprocess_error = |source| SummaryError::Preprocess {
-            label: entry.label.clone(),
-            source,
-        };
+        let recording = load_entry(&entry)?;
+        let to_preprocess_error = |source| EntryError::preprocess(&entry, source);
         // Designing the filter checks the rate and the configuration.
         FilterPlan::new(entry.fs_hz, preprocess).map_err(to_preprocess_error)?;
         let samples = recording.len();
