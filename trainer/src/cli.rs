@@ -16,6 +16,23 @@ use pumptwin_core::graph::GraphConfig;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
+/// `println!` into a locked stdout that hands the error back instead of panicking, so
+/// a closed pipe (`pumptwin … | head`) ends a command cleanly (see [`is_broken_pipe`]).
+macro_rules! outln {
+    ($($arg:tt)*) => {
+        writeln!(std::io::stdout().lock(), $($arg)*)?
+    };
+}
+
+/// Whether an error is the reader of our stdout having gone away: not a failure of
+/// the command, the binary exits 0 on it.
+pub fn is_broken_pipe(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        c.downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+    })
+}
+
 /// Parse a bearing: `cwru-6205-de`, `cwru-6203-fe`, or `n,d,D,angle_deg`.
 pub fn parse_bearing(s: &str) -> Result<BearingGeometry> {
     match s {
@@ -131,7 +148,7 @@ pub fn run_simulate(args: &SimulateArgs) -> Result<()> {
         args.out.join("spec.json"),
         serde_json::to_string_pretty(&json)? + "\n",
     )?;
-    println!(
+    outln!(
         "simulated {} s of {} at {} rpm: {} nodes x {} samples -> {}",
         args.duration,
         args.fault
@@ -367,16 +384,16 @@ pub fn run_features(args: &FeaturesArgs) -> Result<()> {
     let norm = fit_norm(&windows);
     let graph = GraphConfig::<3>::uniform();
     let f = bearing.frequencies(shaft);
-    println!(
+    outln!(
         "{}: {} Hz -> {} Hz (band limit {} Hz), {:.2} s, {} rpm; shaft {:.2} Hz, BPFO {:.1}, BPFI {:.1}, BSF {:.1}, FTF {:.2} Hz",
         raw.name, raw.fs_hz, rec.fs_hz, cfg.band_limit_hz, rec.duration_s(), rpm, f.shaft, f.bpfo, f.bpfi, f.bsf, f.ftf
     );
-    println!(
+    outln!(
         "{} windows of {WINDOW} samples (hop {}), T = {} segments; masked node-windows: {} missing channel, {} rejected signal",
         windows.len(), WINDOW / 2, cfg.segments, counts.missing_channel, counts.rejected_signal
     );
     // Mean of each feature per node over windows and segments.
-    println!(
+    outln!(
         "\n{:<16} {}",
         "feature",
         nodes.iter().map(|n| format!("{n:>12}")).collect::<String>()
@@ -398,7 +415,7 @@ pub fn run_features(args: &FeaturesArgs) -> Result<()> {
                 ));
             }
         }
-        println!("{line}");
+        outln!("{line}");
     }
     let mut mean_adj = [[0.0f32; 3]; 3];
     let mut graphs_json = Vec::new();
@@ -421,11 +438,14 @@ pub fn run_features(args: &FeaturesArgs) -> Result<()> {
             }));
         }
     }
-    println!("\nmean normalized adjacency (eqs. 1-3, features z-scored over this record):");
+    outln!("\nmean normalized adjacency (eqs. 1-3, features z-scored over this record):");
     for (i, row) in mean_adj.iter().enumerate() {
-        println!(
+        outln!(
             "  {:<4} {:>8.4} {:>8.4} {:>8.4}",
-            nodes[i], row[0], row[1], row[2]
+            nodes[i],
+            row[0],
+            row[1],
+            row[2]
         );
     }
     // Envelope-spectrum explanation on the first present node.
@@ -455,7 +475,7 @@ pub fn run_features(args: &FeaturesArgs) -> Result<()> {
             .flat_map(|(name, fk)| (1..=3).map(move |h| (*name, *fk * h as f32, h)))
             .min_by(|a, b| (a.1 - peak).abs().total_cmp(&(b.1 - peak).abs()))
             .unwrap_or(("none", 0.0, 0));
-        println!(
+        outln!(
             "\nenvelope spectrum of {} ({}–{} Hz band): strongest line in {lo:.0}–400 Hz at {peak:.1} Hz = {:.2} x shaft; nearest kinematic line {order}x{name} = {fk:.1} Hz ({:+.2} %)",
             ch.name, cfg.envelope_band.lo_hz, cfg.envelope_band.hi_hz, peak / shaft, 100.0 * (peak / fk - 1.0)
         );
@@ -475,7 +495,7 @@ pub fn run_features(args: &FeaturesArgs) -> Result<()> {
         });
         std::fs::write(out, serde_json::to_string(&json)? + "\n")
             .with_context(|| format!("write {}", out.display()))?;
-        println!("wrote {}", out.display());
+        outln!("wrote {}", out.display());
     }
     Ok(())
 }
@@ -564,7 +584,7 @@ pub fn run_twin(cmd: &TwinCmd) -> Result<()> {
                 std::fs::create_dir_all(dir).ok();
             }
             write_csv(&rec, &args.out)?;
-            println!(
+            outln!(
                 "wrote {} ({} samples at {FS_HZ} Hz, {RPM} rpm)",
                 args.out.display(),
                 rec.len()
@@ -600,18 +620,20 @@ fn run_twin_loop(args: &TwinLoopArgs) -> Result<()> {
     let (report, artifacts) = run(&input, &LoopConfig::default())?;
     let f = bearing.frequencies(rpm / 60.0);
     crate::twin::report::write(&args.out, &report, &artifacts, &kinematic_markers(&f))?;
-    println!(
+    outln!(
         "{}: channel {}, fault hypothesis {}",
-        raw.name, channel.name, report.fault
+        raw.name,
+        channel.name,
+        report.fault
     );
-    println!(
+    outln!(
         "initial fit: PSD {:.2} dB RMSE, envelope {:.3} RMSE ({:.2} dB)",
         report.error_initial.psd_log_rmse_db,
         report.error_initial.envelope_rmse,
         report.error_initial.envelope_log_rmse_db
     );
     for s in &report.steps {
-        println!(
+        outln!(
             "+ {:<22} PSD {:.2} -> {:.2} dB, envelope {:.3} -> {:.3}   ({})",
             s.effect,
             s.error_before.psd_log_rmse_db,
@@ -622,12 +644,15 @@ fn run_twin_loop(args: &TwinLoopArgs) -> Result<()> {
         );
     }
     for r in &report.rejected {
-        println!(
+        outln!(
             "- {:<22} rejected: cost {:.3} -> {:.3} ({})",
-            r.effect, r.cost_before, r.cost_after, r.evidence.summary
+            r.effect,
+            r.cost_before,
+            r.cost_after,
+            r.evidence.summary
         );
     }
-    println!(
+    outln!(
         "final: PSD {:.2} dB RMSE, envelope {:.3}; residual noise-like: {}; stop: {}; {:.1} s, {} model evaluations -> {}",
         report.error_final.psd_log_rmse_db, report.error_final.envelope_rmse, report.residual_noise_like, report.stop_reason, report.seconds, report.evaluations, args.out.display()
     );
@@ -693,7 +718,7 @@ pub fn run_twin_cwru(args: &TwinCwruArgs) -> Result<()> {
             &artifacts,
             &kinematic_markers(&BearingGeometry::CWRU_6205_DE.frequencies(rpm / 60.0)),
         )?;
-        println!(
+        outln!(
             "{} ({}): fault {}, effects {:?}, PSD {:.2} -> {:.2} dB, {:.1} s",
             raw.name,
             entry.label,
@@ -794,7 +819,7 @@ pub fn run_twin_cwru(args: &TwinCwruArgs) -> Result<()> {
         std::fs::create_dir_all(dir).ok();
     }
     std::fs::write(&args.out, md).with_context(|| format!("write {}", args.out.display()))?;
-    println!("wrote {}", args.out.display());
+    outln!("wrote {}", args.out.display());
     Ok(())
 }
 

@@ -5,12 +5,13 @@ use std::path::PathBuf;
 use anyhow::Context;
 use clap::{Args, Parser, Subcommand};
 use pumptwin_trainer::cli::{
-    run_features, run_simulate, run_twin, FeaturesArgs, SimulateArgs, TwinCmd,
+    is_broken_pipe, run_features, run_simulate, run_twin, FeaturesArgs, SimulateArgs, TwinCmd,
 };
 use pumptwin_trainer::data::preprocess::{PreprocessConfig, MODEL_FS_HZ};
 use pumptwin_trainer::data::summary::summarize;
 use pumptwin_trainer::data::windows::{Protocol, WindowConfig, DEFAULT_HOP, DEFAULT_WINDOW_LEN};
 use pumptwin_trainer::training::{run_eval, run_train, EvalArgs, TrainArgs};
+use std::io::Write;
 
 /// Physics-informed bearing fault diagnosis: data, training, evaluation, export.
 #[derive(Debug, Parser)]
@@ -81,18 +82,22 @@ fn data_summary(args: &SummaryArgs) -> anyhow::Result<()> {
     };
     let summary = summarize(&args.data, &protocols, &preprocess, &windows)
         .with_context(|| format!("cannot summarize {}", args.data.display()))?;
-    print!("{summary}");
+    write!(std::io::stdout().lock(), "{summary}")?;
     Ok(())
 }
 
 fn main() -> anyhow::Result<()> {
     let cli = Cli::parse();
-    match &cli.command {
+    let result = match &cli.command {
         Command::Data(DataCmd::Summary(args)) => data_summary(args),
         Command::Simulate(args) => run_simulate(args),
         Command::Features(args) => run_features(args),
         Command::Twin(cmd) => run_twin(cmd),
         Command::Train(args) => run_train(args),
         Command::Eval(args) => run_eval(args),
+    };
+    match result {
+        Err(e) if is_broken_pipe(&e) => Ok(()),
+        other => other,
     }
 }
