@@ -8,6 +8,7 @@ use crate::featurize::{
 };
 use crate::plot::{line_plot, PlotSpec, Series};
 use crate::sim::{location_name, simulate, SimulationSpec};
+use crate::twin::signature::welch;
 use anyhow::{bail, Context, Result};
 use pumptwin_core::bearing::{BearingGeometry, DefectLocation};
 use pumptwin_core::features::{envelope_spectrum, EnvelopeBand, FEATURE_DIM, FEATURE_NAMES};
@@ -208,21 +209,12 @@ pub fn averaged_spectra(
     }
     let mut scratch = vec![Complex32::ZERO; n];
     let mut env = vec![0.0f32; n];
-    let mut block = vec![0.0f32; n / 2 + 1];
-    let mut psd = vec![0.0f32; n / 2 + 1];
-    let mut envs = vec![0.0f32; n / 2 + 1];
-    let mut count = 0usize;
-    for start in (0..=x.len() - n).step_by(n / 2) {
-        let seg = &x[start..start + n];
-        power_spectrum(seg, Window::Hann, &mut scratch, &mut block)?;
-        psd.iter_mut().zip(&block).for_each(|(a, b)| *a += b);
-        envelope_spectrum(seg, fs, band, &mut scratch, &mut env, &mut block)?;
-        envs.iter_mut().zip(&block).for_each(|(a, b)| *a += b);
-        count += 1;
-    }
-    let inv = 1.0 / count as f32;
-    psd.iter_mut().for_each(|v| *v *= inv);
-    envs.iter_mut().for_each(|v| *v *= inv);
+    let psd = welch(x, n, |seg, out| {
+        power_spectrum(seg, Window::Hann, &mut scratch, out)
+    })?;
+    let envs = welch(x, n, |seg, out| {
+        envelope_spectrum(seg, fs, band, &mut scratch, &mut env, out)
+    })?;
     let freqs = (0..=n / 2).map(|k| k as f32 * fs / n as f32).collect();
     Ok((freqs, psd, envs))
 }

@@ -6,7 +6,7 @@
 //! Narrow runs (≤ 4 bins, a Hann main lobe) are lines; wider runs are bands.
 
 use super::model::{Effect, TwinModel};
-use super::signature::{to_db, Signature, SignatureConfig};
+use super::signature::{to_db, welch, Signature, SignatureConfig};
 use pumptwin_core::bearing::DefectLocation;
 use pumptwin_core::features::{envelope, peak_frequency, EnvelopeBand};
 use pumptwin_core::fft::{fft_in_place, Complex32, Direction};
@@ -367,37 +367,26 @@ fn band_envelope_spectrum(
     hi: f32,
     n: usize,
 ) -> Option<(Vec<f32>, f32)> {
-    if x.len() < n {
-        return None;
-    }
+    let band = EnvelopeBand {
+        lo_hz: lo,
+        hi_hz: hi,
+    };
     let mut scratch = vec![Complex32::ZERO; n];
     let mut env = vec![0.0f32; n];
-    let mut acc = vec![0.0f32; n / 2 + 1];
-    let mut count = 0;
-    for start in (0..=x.len() - n).step_by(n / 2) {
-        envelope(
-            &x[start..start + n],
-            fs,
-            EnvelopeBand {
-                lo_hz: lo,
-                hi_hz: hi,
-            },
-            &mut scratch,
-            &mut env,
-        )
-        .ok()?;
+    let spec = welch(x, n, |block, out| {
+        envelope(block, fs, band, &mut scratch, &mut env)?;
         let mean = env.iter().sum::<f32>() / n as f32;
         for (z, e) in scratch.iter_mut().zip(&env) {
             *z = Complex32::new(e - mean, 0.0);
         }
-        fft_in_place(&mut scratch, Direction::Forward).ok()?;
-        for (a, z) in acc.iter_mut().zip(&scratch) {
-            *a += z.norm_sqr();
+        fft_in_place(&mut scratch, Direction::Forward)?;
+        for (o, z) in out.iter_mut().zip(&scratch) {
+            *o = z.norm_sqr();
         }
-        count += 1;
-    }
-    acc.iter_mut().for_each(|a| *a /= count as f32);
-    Some((acc, fs / n as f32))
+        Ok(())
+    })
+    .ok()?;
+    Some((spec, fs / n as f32))
 }
 
 /// Level (dB over the median) of the strongest line within ±tol of `f` in a spectrum.

@@ -105,8 +105,9 @@ pub enum SignatureError {
     Core(#[from] pumptwin_core::Error),
 }
 
-/// Welch average of `f(block) -> spectrum` over 50 %-overlapping blocks of `n`.
-fn welch(
+/// Welch average of `f(block) -> spectrum` over 50 %-overlapping blocks of `n`
+/// (every averaged spectrum in the project goes through here).
+pub fn welch(
     x: &[f32],
     n: usize,
     mut f: impl FnMut(&[f32], &mut [f32]) -> Result<(), pumptwin_core::Error>,
