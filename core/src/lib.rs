@@ -13,6 +13,7 @@
 //! | [`features`] | time, spectral and envelope-spectrum node features | eq. 9, Table 3 |
 //! | [`graph`] | dynamic sparse sensor graph: prior ⊕ Pearson, threshold, normalization | eqs. 1–3 |
 //! | [`quant`] | int8 DS-STGAT kernels (linear, LUTs, softmax, GAT, GRU, pooling, classifier) with float references | eqs. 4–8 |
+//! | [`dsstgat`] | the whole int8 DS-STGAT on one window (embedding → GAT → GRU → pooling → class and indicator heads) and its float reference | eqs. 4–9, 12–13 |
 //! | [`model_file`] | the postcard model file: header, CRC-32, fixed-capacity payload, checked decoding into the [`quant`] kernels | §4.2 (the trained DS-STGAT) |
 //! | [`rng`] | seeded PRNG (xoshiro128++), Gaussian and Poisson draws | §5.2 random excitation |
 //!
@@ -28,6 +29,7 @@
 extern crate std;
 
 pub mod bearing;
+pub mod dsstgat;
 mod error;
 pub mod excitation;
 pub mod features;

@@ -1,12 +1,12 @@
 //! The model file: one postcard-encoded file with everything the edge needs to run a
 //! trained DS-STGAT, decoded without allocation into fixed-capacity buffers.
 //!
-//! # Layout (format version 1)
+//! # Layout (format version 2)
 //!
 //! | offset | bytes | field | encoding |
 //! |---|---|---|---|
 //! | 0 | 8 | magic [`MAGIC`] = `PTWINMDL` | ASCII |
-//! | 8 | 2 | format version [`FORMAT_VERSION`] = 1 | u16, little-endian |
+//! | 8 | 2 | format version [`FORMAT_VERSION`] = 2 | u16, little-endian |
 //! | 10 | 4 | payload length `L` | u32, little-endian |
 //! | 14 | `L` | payload: a [`ModelFile`] | postcard 1.x |
 //! | 14 + `L` | 4 | CRC-32 of the payload (see [`crc32`]) | u32, little-endian |
@@ -19,15 +19,17 @@
 //! | field | type | what |
 //! |---|---|---|
 //! | `model_name`, `created` | `String<32>` ×2 | free-form name, creation date |
-//! | `dims` | [`Dimensions`] | `N` nodes, `F` features, `T` steps, GAT and GRU hidden sizes, heads, `C` classes |
+//! | `dims` | [`Dimensions`] | `N` nodes, `F` features, `T` steps, GAT and GRU hidden sizes, heads, `C` classes, `K` indicators |
 //! | `class_names` | `Vec<String<16>, 16>` | `C` names, in logit order |
 //! | `sensor_names` | `Vec<String<16>, 8>` | `N` names, in node order |
 //! | `feature_norm` | [`NormParts`] | mean, std: `[f32; FEATURE_DIM]` each |
 //! | `graph` | [`GraphParts`] | β, τ_corr, window `w`, prior `P` (`N·N` f32, row-major) |
-//! | `gat` | [`GatParts`] | projection `W` (`[H_gat][F]`), `a_src`, `a_dst`, bias, scales |
+//! | `embed` | [`EmbedParts`] | node embedding `W_in, b_in` (`[H_gat][F]`), ReLU after it |
+//! | `gat` | [`GatParts`] | projection `W` (`[H_gat][H_gat]`), `a_src`, `a_dst`, bias, scales |
 //! | `gru` | [`GruParts`] | `W_z, U_z, W_r, U_r, W_n, U_n` |
 //! | `pool` | [`PoolScoreParts`] | attention-pooling score layer (`[1][H_gru]`) |
-//! | `classifier` | [`ClassifierParts`] | eq. 8 head (`[C][H_gru]`) |
+//! | `classifier` | [`ClassifierParts`] | eq. 8 head (`[C][H_gru]`, `W_o W_c` folded) |
+//! | `indicator` | [`IndicatorParts`] | eq. 13 head (`[K][H_gru]`, `W_f W_c` folded), names, target mean/std |
 //! | `physics` | [`PhysicsParts`] | default [`BearingParams`] (f64, SI) |
 //! | `geometry` | [`GeometryParts`] | bearing `n`, `d`, `D`, contact angle |
 //!
@@ -66,11 +68,14 @@
 //! |---|---|---|
 //! | [`MAX_NODES`] | 8 | `N` |
 //! | [`MAX_CLASSES`] | 16 | `C` |
-//! | [`MAX_HIDDEN`] | 64 | `H_gat`, `H_gru` |
+//! | [`MAX_HIDDEN`] | 32 | `H_gat`, `H_gru` |
 //! | [`MAX_STEPS`] | 8192 | `T` (`T·N ≤` [`MAX_POOL_PAIRS`]) |
-//! | [`MAX_GAT_WEIGHTS`] | 1280 | `H_gat·F` |
-//! | [`MAX_GRU_WEIGHTS`] | 4096 | each GRU matrix |
-//! | [`MAX_CLASSIFIER_WEIGHTS`] | 1024 | `C·H_gru` |
+//! | [`MAX_INDICATORS`] | 8 | `K` |
+//! | [`MAX_EMBED_WEIGHTS`] | 640 | `H_gat·F` |
+//! | [`MAX_GAT_WEIGHTS`] | 1024 | `H_gat·H_gat` |
+//! | [`MAX_GRU_WEIGHTS`] | 1024 | each GRU matrix |
+//! | [`MAX_CLASSIFIER_WEIGHTS`] | 512 | `C·H_gru` |
+//! | [`MAX_INDICATOR_WEIGHTS`] | 256 | `K·H_gru` |
 //!
 //! `F` must equal [`FEATURE_DIM`] (the normalization has that many entries).
 //!
@@ -123,7 +128,7 @@ use crate::simulator::BearingParams;
 /// The first 8 bytes of every model file.
 pub const MAGIC: [u8; 8] = *b"PTWINMDL";
 /// The format version this core writes and reads.
-pub const FORMAT_VERSION: u16 = 1;
+pub const FORMAT_VERSION: u16 = 2;
 /// Bytes before the payload: magic, version, payload length.
 pub const HEADER_LEN: usize = 14;
 /// Bytes after the payload: the CRC-32.
@@ -134,7 +139,7 @@ pub const MAX_NODES: usize = 8;
 /// Most classes `C`.
 pub const MAX_CLASSES: usize = 16;
 /// Largest GAT or GRU hidden size.
-pub const MAX_HIDDEN: usize = 64;
+pub const MAX_HIDDEN: usize = 32;
 /// Most time steps `T` (so that `T·N` pooled pairs never exceed [`MAX_POOL_PAIRS`]).
 pub const MAX_STEPS: usize = MAX_POOL_PAIRS / MAX_NODES;
 /// Capacity in bytes of a class or sensor name.
@@ -143,20 +148,30 @@ pub const NAME_LEN: usize = 16;
 pub const TEXT_LEN: usize = 32;
 /// Entries of the largest graph prior, `MAX_NODES²`.
 pub const MAX_PRIOR: usize = MAX_NODES * MAX_NODES;
-/// Int8 weights of the GAT projection, `MAX_HIDDEN · FEATURE_DIM`.
-pub const MAX_GAT_WEIGHTS: usize = MAX_HIDDEN * FEATURE_DIM;
+/// Most physical-indicator outputs `K` (eq. 13).
+pub const MAX_INDICATORS: usize = 8;
+/// Int8 weights of the node embedding, `MAX_HIDDEN · FEATURE_DIM`.
+pub const MAX_EMBED_WEIGHTS: usize = MAX_HIDDEN * FEATURE_DIM;
+/// Int8 weights of the indicator head, `MAX_INDICATORS · MAX_HIDDEN`.
+pub const MAX_INDICATOR_WEIGHTS: usize = MAX_INDICATORS * MAX_HIDDEN;
+/// Int8 weights of the GAT projection, `MAX_HIDDEN · MAX_HIDDEN`.
+pub const MAX_GAT_WEIGHTS: usize = MAX_HIDDEN * MAX_HIDDEN;
 /// Int8 weights of one GRU matrix (`W_g` or `U_g`), `MAX_HIDDEN²`.
 pub const MAX_GRU_WEIGHTS: usize = MAX_HIDDEN * MAX_HIDDEN;
 /// Int8 weights of the classifier, `MAX_CLASSES · MAX_HIDDEN`.
 pub const MAX_CLASSIFIER_WEIGHTS: usize = MAX_CLASSES * MAX_HIDDEN;
 /// Upper bound of `size_of::<ModelFile>()`, checked at compile time for every target.
-pub const DECODED_SIZE_BUDGET: usize = 32 * 1024;
+pub const DECODED_SIZE_BUDGET: usize = 16 * 1024;
 
 /// A class or sensor name.
 pub type Name = String<NAME_LEN>;
 /// The model name or the creation date.
 pub type Text = String<TEXT_LEN>;
-/// The GAT projection `W` (`[H_gat][F]`).
+/// The node embedding `W_in, b_in` (`[H_gat][F]`).
+pub type EmbedParts = QLinearParts<MAX_EMBED_WEIGHTS, MAX_HIDDEN>;
+/// The indicator head (`[K][H_gru]`).
+pub type IndicatorHeadParts = QLinearParts<MAX_INDICATOR_WEIGHTS, MAX_INDICATORS>;
+/// The GAT projection `W` (`[H_gat][H_gat]`).
 pub type GatProjectParts = QLinearParts<MAX_GAT_WEIGHTS, MAX_HIDDEN>;
 /// One GRU matrix (`W_g`: `[H_gru][H_gat]`, `U_g`: `[H_gru][H_gru]`).
 pub type GruMatrixParts = QLinearParts<MAX_GRU_WEIGHTS, MAX_HIDDEN>;
@@ -240,6 +255,8 @@ pub struct Dimensions {
     pub heads: u16,
     /// Classes `C`, `1..=`[`MAX_CLASSES`].
     pub classes: u16,
+    /// Physical indicators `K` (eq. 13), `1..=`[`MAX_INDICATORS`].
+    pub indicators: u16,
 }
 
 impl Dimensions {
@@ -249,11 +266,13 @@ impl Dimensions {
         let hg = usize::from(self.gat_hidden);
         let hr = usize::from(self.gru_hidden);
         match id {
-            LayerId::GatProject => (f, hg),
+            LayerId::Embed => (f, hg),
+            LayerId::GatProject => (hg, hg),
             LayerId::GruWz | LayerId::GruWr | LayerId::GruWn => (hg, hr),
             LayerId::GruUz | LayerId::GruUr | LayerId::GruUn => (hr, hr),
             LayerId::PoolScore => (hr, 1),
             LayerId::Classifier => (hr, usize::from(self.classes)),
+            LayerId::Indicator => (hr, usize::from(self.indicators)),
         }
     }
 }
@@ -261,7 +280,9 @@ impl Dimensions {
 /// The int8 layers of the model.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum LayerId {
-    /// GAT projection `W` (eqs. 4, 6), `F → H_gat`, no bias.
+    /// Node embedding `W_in, b_in` (eq. 9's `f_embed`), `F → H_gat`, ReLU after it.
+    Embed,
+    /// GAT projection `W` (eqs. 4, 6), `H_gat → H_gat`, no bias.
     GatProject,
     /// GRU `W_z` with `b_z` (eq. 7a), `H_gat → H_gru`.
     GruWz,
@@ -279,12 +300,15 @@ pub enum LayerId {
     PoolScore,
     /// Classifier `W_o, b_o` (eq. 8), `H_gru → C`.
     Classifier,
+    /// Physical-indicator head `W_f, b_f` (eq. 13), `H_gru → K`.
+    Indicator,
 }
 
 /// A message naming the layer, built at compile time.
 macro_rules! layer_msg {
     ($id:expr, $what:literal) => {
         match $id {
+            LayerId::Embed => concat!("embed: ", $what),
             LayerId::GatProject => concat!("gat.project: ", $what),
             LayerId::GruWz => concat!("gru.w_z: ", $what),
             LayerId::GruUz => concat!("gru.u_z: ", $what),
@@ -294,13 +318,15 @@ macro_rules! layer_msg {
             LayerId::GruUn => concat!("gru.u_n: ", $what),
             LayerId::PoolScore => concat!("pool: ", $what),
             LayerId::Classifier => concat!("classifier: ", $what),
+            LayerId::Indicator => concat!("indicator.head: ", $what),
         }
     };
 }
 
 impl LayerId {
     /// Every layer, in payload order.
-    pub const ALL: [LayerId; 9] = [
+    pub const ALL: [LayerId; 11] = [
+        LayerId::Embed,
         LayerId::GatProject,
         LayerId::GruWz,
         LayerId::GruUz,
@@ -310,11 +336,13 @@ impl LayerId {
         LayerId::GruUn,
         LayerId::PoolScore,
         LayerId::Classifier,
+        LayerId::Indicator,
     ];
 
     /// The layer's field path in the payload, e.g. `"gru.w_z"`.
     pub const fn name(self) -> &'static str {
         match self {
+            LayerId::Embed => "embed",
             LayerId::GatProject => "gat.project",
             LayerId::GruWz => "gru.w_z",
             LayerId::GruUz => "gru.u_z",
@@ -324,6 +352,7 @@ impl LayerId {
             LayerId::GruUn => "gru.u_n",
             LayerId::PoolScore => "pool",
             LayerId::Classifier => "classifier",
+            LayerId::Indicator => "indicator.head",
         }
     }
 }
@@ -540,6 +569,21 @@ impl GruParts {
     }
 }
 
+/// The physical-indicator head (eq. 13) with what it takes to read its outputs:
+/// indicator `k` in physical units is `mean[k] + std[k]·ẑ_k`, `ẑ` the head's output
+/// (the trainer fits the head on z-scored targets).
+#[derive(Debug, Clone, PartialEq, Default, Serialize)]
+pub struct IndicatorParts {
+    /// Indicator names, `[K]`.
+    pub names: Vec<Name, MAX_INDICATORS>,
+    /// Target means, `[K]`.
+    pub mean: Vec<f32, MAX_INDICATORS>,
+    /// Target standard deviations (> 0), `[K]`.
+    pub std: Vec<f32, MAX_INDICATORS>,
+    /// The head `W_f W_c`, `b_f + W_f b_c`: `[K][H_gru]`.
+    pub head: IndicatorHeadParts,
+}
+
 /// Default physical parameters of the 2-DOF model ([`BearingParams`], SI units).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct PhysicsParts {
@@ -641,6 +685,8 @@ pub struct ModelFile {
     pub feature_norm: NormParts,
     /// Graph construction.
     pub graph: GraphParts,
+    /// Node embedding.
+    pub embed: EmbedParts,
     /// GAT layer.
     pub gat: GatParts,
     /// GRU cell.
@@ -649,6 +695,8 @@ pub struct ModelFile {
     pub pool: PoolScoreParts,
     /// Classifier head.
     pub classifier: ClassifierParts,
+    /// Physical-indicator head.
+    pub indicator: IndicatorParts,
     /// Default physical parameters.
     pub physics: PhysicsParts,
     /// Bearing geometry.
@@ -841,6 +889,12 @@ in_place::struct_in_place!(GruParts {
     w_n,
     u_n,
 });
+in_place::struct_in_place!(IndicatorParts {
+    names,
+    mean,
+    std,
+    head,
+});
 in_place::struct_in_place!(ModelFile {
     model_name,
     created,
@@ -849,10 +903,12 @@ in_place::struct_in_place!(ModelFile {
     sensor_names,
     feature_norm,
     graph,
+    embed,
     gat,
     gru,
     pool,
     classifier,
+    indicator,
     physics,
     geometry,
 });
@@ -883,11 +939,12 @@ const fn linear_max(w: usize, ch: usize) -> usize {
 
 /// Largest payload: every buffer full, every varint at its longest.
 const MAX_PAYLOAD_LEN: usize = 2 * seq_max(TEXT_LEN, 1) // model_name, created
-    + 7 * 3 // dims: 7 × u16
+    + 8 * 3 // dims: 8 × u16
     + seq_max(MAX_CLASSES, seq_max(NAME_LEN, 1))
     + seq_max(MAX_NODES, seq_max(NAME_LEN, 1))
     + 2 * FEATURE_DIM * 4 // feature_norm
     + 4 + 4 + 3 + seq_max(MAX_PRIOR, 4) // graph
+    + linear_max(MAX_EMBED_WEIGHTS, MAX_HIDDEN)
     + linear_max(MAX_GAT_WEIGHTS, MAX_HIDDEN)
     + 2 * (seq_max(MAX_HIDDEN, 1) + 4)
     + seq_max(MAX_HIDDEN, 5)
@@ -895,6 +952,8 @@ const MAX_PAYLOAD_LEN: usize = 2 * seq_max(TEXT_LEN, 1) // model_name, created
     + 6 * linear_max(MAX_GRU_WEIGHTS, MAX_HIDDEN)
     + linear_max(MAX_HIDDEN, 1)
     + linear_max(MAX_CLASSIFIER_WEIGHTS, MAX_CLASSES)
+    + seq_max(MAX_INDICATORS, seq_max(NAME_LEN, 1)) + 2 * seq_max(MAX_INDICATORS, 4)
+    + linear_max(MAX_INDICATOR_WEIGHTS, MAX_INDICATORS)
     + 7 * 8 // physics
     + 1 + 3 * 4; // geometry
 
@@ -1197,13 +1256,13 @@ impl ModelFile {
             d.gat_hidden,
             1,
             MAX_HIDDEN,
-            "GAT hidden size must be in 1..=MAX_HIDDEN (64)",
+            "GAT hidden size must be in 1..=MAX_HIDDEN (32)",
         )?;
         check_range(
             d.gru_hidden,
             1,
             MAX_HIDDEN,
-            "GRU hidden size must be in 1..=MAX_HIDDEN (64)",
+            "GRU hidden size must be in 1..=MAX_HIDDEN (32)",
         )?;
         check_range(d.heads, 1, 1, "heads must be 1 (the int8 GAT has one head)")?;
         check_range(
@@ -1212,6 +1271,17 @@ impl ModelFile {
             MAX_CLASSES,
             "classes C must be in 1..=MAX_CLASSES (16)",
         )?;
+        check_range(
+            d.indicators,
+            1,
+            MAX_INDICATORS,
+            "indicators K must be in 1..=MAX_INDICATORS (8)",
+        )?;
+        let k = usize::from(d.indicators);
+        let ind = &self.indicator;
+        check_len(ind.names.len(), k, "indicator name count != indicators K")?;
+        check_len(ind.mean.len(), k, "indicator mean count != indicators K")?;
+        check_len(ind.std.len(), k, "indicator std count != indicators K")?;
         let n = usize::from(d.nodes);
         check_len(
             self.class_names.len(),
@@ -1261,6 +1331,14 @@ impl ModelFile {
         check_codes(&g.a_src, "gat.a_src: a code is -128")?;
         check_codes(&g.a_dst, "gat.a_dst: a code is -128")?;
         check_bias(&g.bias, "gat.bias: a bias exceeds 2^30 - 1")?;
+        let ind = &self.indicator;
+        if ind.mean.iter().any(|m| !m.is_finite())
+            || ind.std.iter().any(|s| !(s.is_finite() && *s > 0.0))
+        {
+            return Err(Error::ModelValue(
+                "indicator: a mean is not finite or a std is not finite and > 0",
+            ));
+        }
         self.bearing_params()?;
         self.bearing_geometry()?;
         Ok(())
@@ -1328,6 +1406,7 @@ impl ModelFile {
     /// One layer's parts as slices.
     pub fn layer(&self, id: LayerId) -> LayerView<'_> {
         match id {
+            LayerId::Embed => self.embed.view(),
             LayerId::GatProject => self.gat.project.view(),
             LayerId::GruWz => self.gru.w_z.view(),
             LayerId::GruUz => self.gru.u_z.view(),
@@ -1337,6 +1416,7 @@ impl ModelFile {
             LayerId::GruUn => self.gru.u_n.view(),
             LayerId::PoolScore => self.pool.view(),
             LayerId::Classifier => self.classifier.view(),
+            LayerId::Indicator => self.indicator.head.view(),
         }
     }
 
@@ -1414,11 +1494,33 @@ impl ModelFile {
         &self,
         id: LayerId,
     ) -> Result<QLinear<IN, OUT>> {
-        const { assert!(IN > 0 && OUT > 0, "a layer needs inputs and outputs") };
         if self.dims.layer_shape(id) != (IN, OUT) {
             return Err(Error::ModelDimensions(layer_msg!(
                 id,
                 "sizes asked for != the file's (inputs, outputs)"
+            )));
+        }
+        self.linear_padded(id).map(|(l, _)| l)
+    }
+
+    /// Layer `id` with `IN` inputs and at most `OUT` outputs, padded to `OUT`
+    /// outputs with zero rows (zero weights and bias, the first row's weight scale),
+    /// and the file's output count: for heads whose size (classes, indicators) is
+    /// only known at run time. A caller reads the first `outputs` values only.
+    ///
+    /// # Errors
+    /// [`Error::ModelDimensions`] unless the file's layer has `IN` inputs and at most
+    /// `OUT` outputs; otherwise as [`ModelFile::linear`].
+    pub fn linear_padded<const IN: usize, const OUT: usize>(
+        &self,
+        id: LayerId,
+    ) -> Result<(QLinear<IN, OUT>, usize)> {
+        const { assert!(IN > 0 && OUT > 0, "a layer needs inputs and outputs") };
+        let (inputs, outputs) = self.dims.layer_shape(id);
+        if inputs != IN || outputs > OUT || outputs == 0 {
+            return Err(Error::ModelDimensions(layer_msg!(
+                id,
+                "sizes asked for do not fit the file's (inputs, outputs)"
             )));
         }
         let l = self.layer(id);
@@ -1428,12 +1530,15 @@ impl ModelFile {
         for (row, src) in weights.iter_mut().zip(l.weights.chunks_exact(IN)) {
             row.copy_from_slice(src);
         }
-        let mut weight_scales = [QScale::ONE; OUT];
+        let first = scale(l.weight_scales.first().copied().unwrap_or(0.0), bad_scale)?;
+        let mut weight_scales = [first; OUT];
         for (s, &v) in weight_scales.iter_mut().zip(l.weight_scales) {
             *s = scale(v, bad_scale)?;
         }
         let mut bias = [0i32; OUT];
-        bias.copy_from_slice(l.bias);
+        for (b, &v) in bias.iter_mut().zip(l.bias) {
+            *b = v;
+        }
         QLinear::from_parts(
             weights,
             weight_scales,
@@ -1441,6 +1546,7 @@ impl ModelFile {
             scale(l.input_scale, bad_scale)?,
             scale(l.output_scale, bad_scale)?,
         )
+        .map(|q| (q, outputs))
     }
 
     /// The GAT layer with `F` features and `H` hidden units.
@@ -1540,6 +1646,7 @@ mod tests {
     const HG: usize = 8;
     const HR: usize = 8;
     const C: usize = 4;
+    const K: usize = 2;
 
     fn uniform(rng: &mut Xoshiro128pp, amp: f64) -> f32 {
         ((rng.uniform() * 2.0 - 1.0) * amp) as f32
@@ -1559,15 +1666,26 @@ mod tests {
 
     /// The quantized kernels of a small random model.
     struct Kernels {
-        gat: GatLayer<F, HG>,
+        embed: QLinear<F, HG>,
+        gat: GatLayer<HG, HG>,
         gru: GruCell<HG, HR>,
         pool: AttentionPool<HR>,
         classifier: Classifier<HR, C>,
+        indicator: QLinear<HR, K>,
     }
 
     fn kernels(seed: u64) -> Kernels {
         let mut rng = Xoshiro128pp::seed_from_u64(seed);
-        let gat_f = GatLayerF32::<F, HG> {
+        let embed = QLinear::from_f32(
+            &LinearF32::<F, HG> {
+                w: matrix(&mut rng, 0.4),
+                b: vector(&mut rng, 0.1),
+            },
+            QScale::new(5.0 / 127.0).unwrap(),
+            QScale::new(3.0 / 127.0).unwrap(),
+        )
+        .unwrap();
+        let gat_f = GatLayerF32::<HG, HG> {
             w: matrix(&mut rng, 0.4),
             a_src: vector(&mut rng, 1.0),
             a_dst: vector(&mut rng, 1.0),
@@ -1606,11 +1724,22 @@ mod tests {
         };
         let classifier =
             Classifier::from_f32(&cls_f, QScale::UNIT, QScale::new(1e-4).unwrap()).unwrap();
+        let indicator = QLinear::from_f32(
+            &LinearF32::<HR, K> {
+                w: matrix(&mut rng, 0.5),
+                b: vector(&mut rng, 0.2),
+            },
+            QScale::UNIT,
+            QScale::new(1e-4).unwrap(),
+        )
+        .unwrap();
         Kernels {
+            embed,
             gat,
             gru,
             pool,
             classifier,
+            indicator,
         }
     }
 
@@ -1635,6 +1764,7 @@ mod tests {
                 gru_hidden: HR as u16,
                 heads: 1,
                 classes: C as u16,
+                indicators: K as u16,
             },
             class_names: ["normal", "IR", "B", "OR"]
                 .iter()
@@ -1649,10 +1779,17 @@ mod tests {
                 tau_corr: 0.3,
             })
             .unwrap(),
+            embed: QLinearParts::from_qlinear(&k.embed).unwrap(),
             gat: GatParts::from_layer(&k.gat).unwrap(),
             gru: GruParts::from_cell(&k.gru).unwrap(),
             pool: QLinearParts::from_qlinear(k.pool.score()).unwrap(),
             classifier: QLinearParts::from_qlinear(k.classifier.linear()).unwrap(),
+            indicator: IndicatorParts {
+                names: ["impact", "band_ratio"].iter().map(|s| name(s)).collect(),
+                mean: Vec::from_slice(&[0.5, -1.0]).unwrap(),
+                std: Vec::from_slice(&[2.0, 0.25]).unwrap(),
+                head: QLinearParts::from_qlinear(&k.indicator).unwrap(),
+            },
             physics: PhysicsParts::from(&BearingParams::default_housing()),
             geometry: GeometryParts::from(&BearingGeometry::CWRU_6205_DE),
         }
@@ -1717,7 +1854,9 @@ mod tests {
         let d = decode(&file).unwrap();
         assert_eq!(d, m);
         // The typed kernels rebuilt from the file equal the ones exported.
-        assert_eq!(d.gat_layer::<F, HG>().unwrap(), k.gat);
+        assert_eq!(d.linear::<F, HG>(LayerId::Embed).unwrap(), k.embed);
+        assert_eq!(d.gat_layer::<HG, HG>().unwrap(), k.gat);
+        assert_eq!(d.linear::<HR, K>(LayerId::Indicator).unwrap(), k.indicator);
         assert_eq!(d.gru_cell::<HG, HR>().unwrap(), k.gru);
         assert_eq!(d.attention_pool::<HR>().unwrap(), k.pool);
         assert_eq!(d.classifier::<HR, C>().unwrap(), k.classifier);
@@ -1774,7 +1913,7 @@ mod tests {
     fn typed_sizes_must_match() {
         let d = test_model();
         assert!(matches!(
-            d.gat_layer::<F, 9>(),
+            d.gat_layer::<HG, 9>(),
             Err(Error::ModelDimensions(_))
         ));
         assert!(matches!(
@@ -1873,14 +2012,16 @@ mod tests {
         assert_eq!(decode(&f), Err(Error::ModelMagic));
 
         let mut f = file.clone();
-        f[8..10].copy_from_slice(&2u16.to_le_bytes());
-        assert_eq!(
-            decode(&f),
-            Err(Error::ModelVersion {
-                found: 2,
-                supported: 1
-            })
-        );
+        for old in [1u16, 3] {
+            f[8..10].copy_from_slice(&old.to_le_bytes());
+            assert_eq!(
+                decode(&f),
+                Err(Error::ModelVersion {
+                    found: old,
+                    supported: 2
+                })
+            );
+        }
 
         let mut f = file.clone();
         let n = f.len();
@@ -2005,6 +2146,7 @@ mod tests {
                 gru_hidden: MAX_HIDDEN as u16,
                 heads: 1,
                 classes: MAX_CLASSES as u16,
+                indicators: MAX_INDICATORS as u16,
             },
             ..ModelFile::default()
         };
@@ -2027,7 +2169,14 @@ mod tests {
             l.bias = core::iter::repeat_n(-MAX_BIAS, out).collect();
             l.weights = core::iter::repeat_n(-127, W).collect();
         }
+        fill(&mut m.embed, MAX_HIDDEN);
         fill(&mut m.gat.project, MAX_HIDDEN);
+        fill(&mut m.indicator.head, MAX_INDICATORS);
+        for _ in 0..MAX_INDICATORS {
+            m.indicator.names.push(name(&"i".repeat(NAME_LEN))).unwrap();
+            m.indicator.mean.push(-1.5).unwrap();
+            m.indicator.std.push(2.5).unwrap();
+        }
         for l in [
             &mut m.gru.w_z,
             &mut m.gru.u_z,
@@ -2055,9 +2204,9 @@ mod tests {
             "{} > {MAX_ENCODED_LEN}",
             file.len()
         );
-        // The bound is exact but for the 8 u16 varints (dims, graph window), counted
+        // The bound is exact but for the 9 u16 varints (dims, graph window), counted
         // at 3 bytes each: here 1 byte each, but 2 for T = w = 8192.
-        assert_eq!(MAX_ENCODED_LEN - file.len(), 6 * 2 + 2);
+        assert_eq!(MAX_ENCODED_LEN - file.len(), 7 * 2 + 2);
         assert_eq!(decode(&file).unwrap(), m);
         std::println!("[model_file] largest model: {} bytes", file.len());
     }
