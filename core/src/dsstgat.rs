@@ -531,6 +531,9 @@ pub const MODEL_INDICATORS: usize = crate::model_file::MAX_INDICATORS;
 /// An int8 DS-STGAT of any hidden size the project trains (`H` = 16 or 32), chosen
 /// at run time from a model file: what a gateway loads when it does not know the
 /// model at compile time. Firmware with one fixed model uses [`DsStgat`] directly.
+// No heap in the core, so no boxing: the enum is as large as its H = 32 variant,
+// which is the memory a gateway must reserve anyway.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, PartialEq)]
 pub enum InferenceModel {
     /// `H = 16`.
