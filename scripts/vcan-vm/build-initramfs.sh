@@ -115,71 +115,82 @@ extract_vmlinux() {
     return 1
 }
 
-# --- vmlinuz + modules (extracted once per kernel .deb and module list) -----
+# --- vmlinuz (once per kernel .deb) + modules (once per module list) ------
 norm() { echo "${1//_/-}"; }   # module names: '-' and '_' are the same
 KDIR=$CACHE/kernel/$KPKG
-KSTAMP="$(basename "$KDEB") | $MODULES | pvh-v1"
-if [ ! -f "$KDIR/stamp" ] || [ "$(cat "$KDIR/stamp")" != "$KSTAMP" ]; then
+KSTAMP="$(basename "$KDEB") | pvh-v1"
+MKEY=$(echo "$MODULES" | sha256sum | cut -c1-12)
+MODDIR=$KDIR/modules-$MKEY
+[ -f "$KDIR/stamp" ] && [ "$(cat "$KDIR/stamp")" = "$KSTAMP" ] || rm -rf "$KDIR"
+if [ ! -f "$KDIR/stamp" ] || [ ! -f "$MODDIR/order" ]; then
     log "extracting $(basename "$KDEB")"
-    rm -rf "$KDIR"
     X=$CACHE/kernel/.extract-$KPKG
     rm -rf "$X"
-    mkdir -p "$X" "$KDIR/modules"
+    mkdir -p "$X" "$KDIR"
     dpkg-deb -x "$KDEB" "$X"
-    vmlinuz=$(ls "$X"/boot/vmlinuz-* | head -n1)
-    cp "$vmlinuz" "$KDIR/vmlinuz"
-    cp "$X"/boot/config-* "$KDIR/config" 2>/dev/null || true
-    # Debian's bzImage is XZ-compressed, and decompressing it under TCG takes
-    # ~5 s. With CONFIG_PVH the uncompressed ELF vmlinux boots directly
-    # (qemu -kernel vmlinux, PVH entry), so decompress it once here.
-    if grep -q '^CONFIG_PVH=y' "$KDIR/config" 2>/dev/null; then
-        extract_vmlinux "$KDIR/vmlinuz" "$KDIR/vmlinux" \
-            || log "note: could not extract an ELF vmlinux; booting the bzImage"
-    fi
-    mdir=$(ls -d "$X"/lib/modules/*/ 2>/dev/null | head -n1)
+    mdir=$(ls -d "$X"/lib/modules/*/ 2>/dev/null | head -n1) || true
     [ -n "$mdir" ] || mdir=$(ls -d "$X"/usr/lib/modules/*/ | head -n1)
-    basename "$mdir" > "$KDIR/uname-r"
 
-    # index: normalised module name -> file
-    declare -A modfile=()
-    while IFS= read -r f; do
-        b=$(basename "$f"); b=${b%%.ko*}
-        modfile[$(norm "$b")]=$f
-    done < <(find "$mdir" -name '*.ko' -o -name '*.ko.xz' -o -name '*.ko.zst' -o -name '*.ko.gz')
-
-    # Decompress to a plain .ko: busybox insmod only reads uncompressed modules
-    # (Debian 12's 6.1 modules are uncompressed anyway; later Debian kernels
-    # ship .ko.xz). The appended signature survives decompression.
-    plain_ko() { # SRC DEST
-        case "$1" in
-            *.ko)     cp "$1" "$2" ;;
-            *.ko.xz)  xz -dc "$1" > "$2" ;;
-            *.ko.zst) zstd -q -dc "$1" > "$2" ;;
-            *.ko.gz)  gzip -dc "$1" > "$2" ;;
-        esac
-    }
-    declare -A seen=()
-    order=()
-    add_mod() { # NAME: depth-first, dependencies first
-        local n f deps d
-        n=$(norm "$1")
-        [ -z "${seen[$n]:-}" ] || return 0
-        seen[$n]=1
-        f=${modfile[$n]:-}
-        if [ -z "$f" ]; then
-            grep -qE "(^|/)${n//-/[-_]}\.ko" "$mdir/modules.builtin" 2>/dev/null \
-                && { log "module $n is built in"; return 0; }
-            die "module $n not found in $KPKG"
+    if [ ! -f "$KDIR/stamp" ]; then
+        vmlinuz=$(ls "$X"/boot/vmlinuz-* | head -n1)
+        cp "$vmlinuz" "$KDIR/vmlinuz"
+        cp "$X"/boot/config-* "$KDIR/config" 2>/dev/null || true
+        basename "$mdir" > "$KDIR/uname-r"
+        # Debian's bzImage is XZ-compressed, and decompressing it under TCG
+        # takes ~5 s. With CONFIG_PVH the uncompressed ELF vmlinux boots
+        # directly (qemu -kernel vmlinux, PVH entry): decompress it once here.
+        if grep -q '^CONFIG_PVH=y' "$KDIR/config" 2>/dev/null; then
+            extract_vmlinux "$KDIR/vmlinuz" "$KDIR/vmlinux" \
+                || log "note: could not extract an ELF vmlinux; booting the bzImage"
         fi
-        plain_ko "$f" "$KDIR/modules/$n.ko"
-        deps=$(tr '\0' '\n' < "$KDIR/modules/$n.ko" | grep -a -m1 '^depends=' | cut -d= -f2) || true
-        for d in ${deps//,/ }; do add_mod "$d"; done
-        order+=("$n.ko")
-    }
-    for m in $MODULES; do add_mod "$m"; done
-    printf '%s\n' "${order[@]}" > "$KDIR/modules.order"
+        echo "$KSTAMP" > "$KDIR/stamp"
+    fi
+
+    if [ ! -f "$MODDIR/order" ]; then
+        rm -rf "$MODDIR"
+        mkdir -p "$MODDIR"
+        # index: normalised module name -> file
+        declare -A modfile=()
+        while IFS= read -r f; do
+            b=$(basename "$f"); b=${b%%.ko*}
+            modfile[$(norm "$b")]=$f
+        done < <(find "$mdir" -name '*.ko' -o -name '*.ko.xz' -o -name '*.ko.zst' -o -name '*.ko.gz')
+
+        # Decompress to a plain .ko: busybox insmod only reads uncompressed
+        # modules (Debian 12's 6.1 modules are uncompressed anyway; later
+        # Debian kernels ship .ko.xz). The appended signature survives.
+        plain_ko() { # SRC DEST
+            case "$1" in
+                *.ko)     cp "$1" "$2" ;;
+                *.ko.xz)  xz -dc "$1" > "$2" ;;
+                *.ko.zst) zstd -q -dc "$1" > "$2" ;;
+                *.ko.gz)  gzip -dc "$1" > "$2" ;;
+            esac
+        }
+        declare -A seen=()
+        order=()
+        add_mod() { # NAME: depth-first, dependencies first
+            local n f deps d
+            n=$(norm "$1")
+            [ -z "${seen[$n]:-}" ] || return 0
+            seen[$n]=1
+            f=${modfile[$n]:-}
+            if [ -z "$f" ]; then
+                grep -qE "(^|/)${n//-/[-_]}\.ko" "$mdir/modules.builtin" 2>/dev/null \
+                    && { log "module $n is built in"; return 0; }
+                rm -rf "$X" "$MODDIR"
+                die "module $n not found in $KPKG"
+            fi
+            plain_ko "$f" "$MODDIR/$n.ko"
+            deps=$(tr '\0' '\n' < "$MODDIR/$n.ko" | grep -a -m1 '^depends=' | cut -d= -f2) || true
+            for d in ${deps//,/ }; do add_mod "$d"; done
+            order+=("$n.ko")
+        }
+        for m in $MODULES; do add_mod "$m"; done
+        printf '%s\n' "${order[@]}" > "$MODDIR/order.tmp"
+        mv "$MODDIR/order.tmp" "$MODDIR/order"
+    fi
     rm -rf "$X"
-    echo "$KSTAMP" > "$KDIR/stamp"
 fi
 ln -sfn "kernel/$KPKG/vmlinuz" "$CACHE/vmlinuz"
 if [ -f "$KDIR/vmlinux" ]; then ln -sfn "kernel/$KPKG/vmlinux" "$CACHE/vmlinux"; else rm -f "$CACHE/vmlinux"; fi
@@ -187,20 +198,21 @@ echo "$KPKG $KVER_DEB $(cat "$KDIR/uname-r")" > "$CACHE/kernel-version"
 
 # --- base root file system (cached; keyed by everything that goes in) -----
 BASE_KEY=$( {
-    echo "$KSTAMP"; echo "can-utils=$CAN_UTILS"
+    echo "$KSTAMP"; echo "$MODDIR"; echo "can-utils=$CAN_UTILS"
     sha256sum "$HERE/init" "${BASH_SOURCE[0]}" "$BUSYBOX" | cut -d' ' -f1
 } | sha256sum | cut -c1-16)
 BASE=$CACHE/base-$BASE_KEY
 if [ ! -f "$BASE/.done" ]; then
     log "building base root fs $BASE"
-    rm -rf "$CACHE"/base-*
+    # drop base trees unused for a week (old script versions, module sets)
+    find "$CACHE" -maxdepth 1 -name 'base-*' -type d -mtime +7 -exec rm -rf {} + 2>/dev/null || true
     mkdir -p "$BASE"/{bin,sbin,usr/bin,usr/sbin,etc/vcan-vm,proc,sys,dev,tmp,run,payload,lib/modules/vcan-vm}
     cp "$BUSYBOX" "$BASE/bin/busybox"
     for a in $("$BUSYBOX" --list); do
         [ "$a" = busybox ] || ln -s busybox "$BASE/bin/$a"
     done
-    cp "$KDIR"/modules/*.ko "$BASE/lib/modules/vcan-vm/"
-    cp "$KDIR/modules.order" "$BASE/etc/vcan-vm/modules"
+    cp "$MODDIR"/*.ko "$BASE/lib/modules/vcan-vm/" 2>/dev/null || true
+    cp "$MODDIR/order" "$BASE/etc/vcan-vm/modules"
     cp "$HERE/init" "$BASE/init"
     chmod 755 "$BASE/init"
     # The kernel wants /dev/console before /init runs (devtmpfs comes later).
@@ -227,6 +239,7 @@ if [ ! -f "$BASE/.done" ]; then
     fi
     touch "$BASE/.done"
 fi
+touch "$BASE"
 
 # --- payload + archive ------------------------------------------------------
 STAGE=$(mktemp -d "$CACHE/stage.XXXXXX")

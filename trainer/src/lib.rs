@@ -6,6 +6,7 @@
 pub mod cli;
 pub mod data;
 pub mod dataset;
+pub mod export;
 pub mod featurize;
 pub mod metrics;
 pub mod model;

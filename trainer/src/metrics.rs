@@ -26,7 +26,7 @@ use anyhow::{Context, Result};
 use burn::tensor::Device;
 use serde::Serialize;
 
-use crate::dataset::{Corpus, NoiseSpec, ProtocolData};
+use crate::dataset::{Corpus, Dataset, NoiseSpec, ProtocolData};
 use crate::model::DsStgat;
 use crate::training::{predict, TrainConfig, ARCH};
 
@@ -183,8 +183,8 @@ pub struct MetricsReport {
     pub parameter_drift: Option<f64>,
 }
 
-/// Evaluate an inference model (from `.valid()` or loaded on `device`) on the test
-/// side of `data`, clean and at every [`NOISE_SNR_DB`], into the report.
+/// Evaluate a burn inference model (from `.valid()` or loaded on `device`) on the
+/// test side of `data`, clean and at every [`NOISE_SNR_DB`], into the report.
 pub fn evaluate(
     model: &DsStgat,
     data: &ProtocolData,
@@ -193,21 +193,36 @@ pub fn evaluate(
     train_seconds: Option<f64>,
     device: &Device,
 ) -> Result<MetricsReport> {
+    let predictor = |ds: &Dataset| Ok(predict(model, ds, cfg.eval_batch_size, device));
+    evaluate_with(&predictor, ARCH, data, corpus, cfg.seed, train_seconds)
+}
+
+/// Evaluate any classifier of windows (`predictor`: one class per window of a data
+/// set) on the test side of `data`, clean and at every [`NOISE_SNR_DB`] (noise seeds
+/// derived from `seed`), into the report.
+pub fn evaluate_with(
+    predictor: &dyn Fn(&Dataset) -> Result<Vec<usize>>,
+    arch: &str,
+    data: &ProtocolData,
+    corpus: &Corpus,
+    seed: u64,
+    train_seconds: Option<f64>,
+) -> Result<MetricsReport> {
     let classes = data.classes().len();
     let truth: Vec<usize> = data.test.label.iter().map(|&l| l as usize).collect();
-    let pred = predict(model, &data.test, cfg.eval_batch_size, device);
+    let pred = predictor(&data.test)?;
     let c = classification(&truth, &pred, classes);
     let normal = data.classes().iter().position(|c| c == "normal");
     let mut noise = Vec::with_capacity(NOISE_SNR_DB.len());
     for (k, &snr_db) in NOISE_SNR_DB.iter().enumerate() {
         let spec = NoiseSpec {
             snr_db,
-            seed: cfg.seed.wrapping_add(1_000 + k as u64),
+            seed: seed.wrapping_add(1_000 + k as u64),
         };
         let noisy = data
             .noisy_test(corpus, spec)
             .with_context(|| format!("cannot featurize the test side at {snr_db} dB"))?;
-        let pred = predict(model, &noisy, cfg.eval_batch_size, device);
+        let pred = predictor(&noisy)?;
         let ok = pred.iter().zip(&truth).filter(|(p, t)| p == t).count();
         noise.push(NoisePoint {
             snr_db,
@@ -216,7 +231,7 @@ pub fn evaluate(
     }
     Ok(MetricsReport {
         protocol: data.protocol.name().to_string(),
-        arch: ARCH.to_string(),
+        arch: arch.to_string(),
         classes: data.classes().to_vec(),
         accuracy: c.accuracy,
         precision_macro: c.precision_macro,

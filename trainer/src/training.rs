@@ -537,8 +537,33 @@ pub struct EvalArgs {
     pub out: PathBuf,
 }
 
+/// A protocol from its name (`time-block`, `cross-load`, `fault-size`).
+pub fn parse_protocol(name: &str) -> Result<Protocol> {
+    <Protocol as clap::ValueEnum>::from_str(name, true)
+        .map_err(|e| anyhow::anyhow!("unknown protocol {name:?}: {e}"))
+}
+
+/// The `config.json` beside a trained model, and its `normalization.json` if present.
+pub fn load_trained_config(
+    model: &Path,
+) -> Result<(TrainConfig, Option<(FeatureNorm, IndicatorNorm)>)> {
+    let dir = model.parent().unwrap_or(Path::new("."));
+    let cfg = TrainConfig::load(dir.join(CONFIG_FILE))
+        .with_context(|| format!("cannot read {}", dir.join(CONFIG_FILE).display()))?;
+    let norms_path = dir.join(NORMS_FILE);
+    let norms = if norms_path.is_file() {
+        let text = std::fs::read_to_string(&norms_path)?;
+        let saved: SavedNorms = serde_json::from_str(&text)
+            .with_context(|| format!("cannot parse {}", norms_path.display()))?;
+        Some(saved.to_norms()?)
+    } else {
+        None
+    };
+    Ok((cfg, norms))
+}
+
 /// Load the corpus and build a protocol's data, reporting sizes and timings on stderr.
-fn load_protocol(
+pub fn load_protocol(
     data_dir: &Path,
     protocol: Protocol,
     norms: Option<(FeatureNorm, IndicatorNorm)>,
@@ -669,25 +694,19 @@ pub fn run_train(args: &TrainArgs) -> Result<()> {
     Ok(())
 }
 
-/// Run `pumptwin eval`.
+/// Run `pumptwin eval`: a burn model (`model.bpk`) or an int8 model file.
 pub fn run_eval(args: &EvalArgs) -> Result<()> {
-    let dir = args.model.parent().unwrap_or(Path::new("."));
-    let cfg = TrainConfig::load(dir.join(CONFIG_FILE))
-        .with_context(|| format!("cannot read {}", dir.join(CONFIG_FILE).display()))?;
-    let norms_path = dir.join(NORMS_FILE);
-    let norms = if norms_path.is_file() {
-        let text = std::fs::read_to_string(&norms_path)?;
-        let saved: SavedNorms = serde_json::from_str(&text)
-            .with_context(|| format!("cannot parse {}", norms_path.display()))?;
-        Some(saved.to_norms()?)
-    } else {
+    if crate::export::is_model_file(&args.model) {
+        return run_eval_int8(args);
+    }
+    let (cfg, norms) = load_trained_config(&args.model)?;
+    if norms.is_none() {
         eprintln!(
             "no {NORMS_FILE} beside the model: refitting the normalization \
              on the {} training windows",
             args.protocol
         );
-        None
-    };
+    }
     let (corpus, data) = load_protocol(&args.data, args.protocol, norms)?;
     if !cfg.classes.is_empty() && cfg.classes != data.classes() {
         bail!(
@@ -705,6 +724,48 @@ pub fn run_eval(args: &EvalArgs) -> Result<()> {
         .try_load_file(&args.model)
         .with_context(|| format!("cannot load {}", args.model.display()))?;
     let report = evaluate(&model, &data, &corpus, &cfg, None, &plain)?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create {}", args.out.display()))?;
+    write_json(&args.out.join(METRICS_FILE), &report)?;
+    print_report(&report);
+    eprintln!("wrote {}", args.out.join(METRICS_FILE).display());
+    Ok(())
+}
+
+/// `pumptwin eval` of an int8 model file: every window through the core's integer
+/// network, with the file's own normalization.
+fn run_eval_int8(args: &EvalArgs) -> Result<()> {
+    let loaded = crate::export::load_model_file(&args.model)?;
+    let (corpus, data) = load_protocol(&args.data, args.protocol, Some(loaded.norms()?))?;
+    if loaded.classes() != data.classes() {
+        bail!(
+            "the model's classes {:?} differ from protocol {}'s {:?}",
+            loaded.classes(),
+            args.protocol,
+            data.classes()
+        );
+    }
+    let predictor = |ds: &Dataset| -> Result<Vec<usize>> {
+        Ok(crate::export::int8_outputs(&loaded.model, ds)?
+            .iter()
+            .map(|o| o.class)
+            .collect())
+    };
+    let t0 = std::time::Instant::now();
+    let report = crate::metrics::evaluate_with(
+        &predictor,
+        crate::export::ARCH_INT8,
+        &data,
+        &corpus,
+        TrainConfig::new().seed,
+        None,
+    )?;
+    eprintln!(
+        "int8 inference of {} windows (clean + {} noise levels) in {:.2} s",
+        data.test.len() * (1 + crate::metrics::NOISE_SNR_DB.len()),
+        crate::metrics::NOISE_SNR_DB.len(),
+        t0.elapsed().as_secs_f64()
+    );
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
     write_json(&args.out.join(METRICS_FILE), &report)?;

@@ -10,6 +10,7 @@ use pumptwin_trainer::cli::{
 use pumptwin_trainer::data::preprocess::{PreprocessConfig, MODEL_FS_HZ};
 use pumptwin_trainer::data::summary::summarize;
 use pumptwin_trainer::data::windows::{Protocol, WindowConfig, DEFAULT_HOP, DEFAULT_WINDOW_LEN};
+use pumptwin_trainer::export::{run_export, ExportArgs};
 use pumptwin_trainer::training::{run_eval, run_train, EvalArgs, TrainArgs};
 use std::io::Write;
 
@@ -37,8 +38,12 @@ enum Command {
     /// Train the DS-STGAT on a protocol's split and evaluate it (writes config.json,
     /// model.bpk, metrics.json).
     Train(TrainArgs),
-    /// Evaluate a trained DS-STGAT on a protocol's test side (metrics.json).
+    /// Evaluate a trained DS-STGAT (burn `model.bpk` or int8 model file) on a
+    /// protocol's test side (metrics.json).
     Eval(EvalArgs),
+    /// Quantize a trained DS-STGAT to int8 and write the postcard model file, its
+    /// golden vectors, parity figures and model card.
+    Export(ExportArgs),
 }
 
 /// `pumptwin data …`
@@ -95,6 +100,7 @@ fn main() -> anyhow::Result<()> {
         Command::Twin(cmd) => run_twin(cmd),
         Command::Train(args) => run_train(args),
         Command::Eval(args) => run_eval(args),
+        Command::Export(args) => run_export(args),
     };
     match result {
         Err(e) if is_broken_pipe(&e) => Ok(()),
