@@ -26,8 +26,8 @@ use burn::module::Module;
 use burn::tensor::{Device, Tensor};
 use pumptwin_core::bearing::BearingGeometry;
 use pumptwin_core::dsstgat::{
-    DsStgat, DsStgatF32, InferenceModel, InferenceScratch, Output, OutputF32, Ranges,
-    ScratchF32, MODEL_CLASSES, MODEL_INDICATORS,
+    DsStgat, DsStgatF32, InferenceModel, InferenceScratch, Output, OutputF32, Ranges, ScratchF32,
+    MODEL_CLASSES, MODEL_INDICATORS,
 };
 use pumptwin_core::graph::{Adjacency, NodeMask};
 use pumptwin_core::model_file::{self, GraphParts, ModelFile, Name, Text};
@@ -37,8 +37,8 @@ use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
 use crate::dataset::{
-    Dataset, IndicatorNorm, ProtocolData, FEATURES, INDICATOR_NAMES, NODES, N_INDICATORS,
-    N_NODES, STEPS,
+    Dataset, IndicatorNorm, ProtocolData, FEATURES, INDICATOR_NAMES, NODES, N_INDICATORS, N_NODES,
+    STEPS,
 };
 use crate::model::DsStgat as BurnDsStgat;
 use crate::training::{Batch, TrainConfig};
@@ -132,8 +132,15 @@ fn folded_head<const H: usize, const OUT: usize>(
 ) -> Result<LinearF32<H, OUT>> {
     let (wc, bc) = linear_parts(compress)?;
     let (wh, bh) = linear_parts(head)?;
-    ensure!(wc.rows == H && wc.cols == wh.rows, "compression/head shapes differ");
-    ensure!(wh.cols <= OUT, "head has {} outputs, at most {OUT} fit", wh.cols);
+    ensure!(
+        wc.rows == H && wc.cols == wh.rows,
+        "compression/head shapes differ"
+    );
+    ensure!(
+        wh.cols <= OUT,
+        "head has {} outputs, at most {OUT} fit",
+        wh.cols
+    );
     let z = wc.cols;
     let mut w = [[0.0f32; H]; OUT];
     let mut b = [0.0f32; OUT];
@@ -223,7 +230,12 @@ impl CoreWindow {
 }
 
 /// The burn model's logits on every window of `ds`, `[W][C]`.
-pub fn burn_logits(m: &BurnDsStgat, ds: &Dataset, batch: usize, device: &Device) -> Result<Vec<Vec<f32>>> {
+pub fn burn_logits(
+    m: &BurnDsStgat,
+    ds: &Dataset,
+    batch: usize,
+    device: &Device,
+) -> Result<Vec<Vec<f32>>> {
     let idx: Vec<usize> = (0..ds.len()).collect();
     let mut out = Vec::with_capacity(ds.len());
     for chunk in idx.chunks(batch.max(1)) {
@@ -298,7 +310,11 @@ pub fn load_model_file(path: &Path) -> Result<LoadedModel> {
 impl LoadedModel {
     /// Class names, in logit order.
     pub fn classes(&self) -> Vec<String> {
-        self.file.class_names().iter().map(|s| s.to_string()).collect()
+        self.file
+            .class_names()
+            .iter()
+            .map(|s| s.to_string())
+            .collect()
     }
 
     /// The feature and indicator normalizations stored in the file.
@@ -388,9 +404,8 @@ fn sha256_hex(bytes: &[u8]) -> String {
 }
 
 fn name(s: &str) -> Result<Name> {
-    Name::try_from(s).map_err(|_| {
-        anyhow::anyhow!("name {s:?} longer than {} bytes", model_file::NAME_LEN)
-    })
+    Name::try_from(s)
+        .map_err(|_| anyhow::anyhow!("name {s:?} longer than {} bytes", model_file::NAME_LEN))
 }
 
 /// Run `pumptwin export`.
@@ -458,14 +473,23 @@ fn export_with<const H: usize>(
     file.dims.nodes = N_NODES as u16;
     file.dims.steps = STEPS as u16;
     for c in data.classes() {
-        file.class_names.push(name(c)?).ok().context("too many classes")?;
+        file.class_names
+            .push(name(c)?)
+            .ok()
+            .context("too many classes")?;
     }
     for s in NODES {
-        file.sensor_names.push(name(s)?).ok().context("too many nodes")?;
+        file.sensor_names
+            .push(name(s)?)
+            .ok()
+            .context("too many nodes")?;
     }
     for (k, n) in INDICATOR_NAMES.iter().enumerate() {
         let short: String = n.chars().take(model_file::NAME_LEN).collect();
-        file.indicator.names.push(Name::try_from(short.as_str()).unwrap_or_default()).ok();
+        file.indicator
+            .names
+            .push(Name::try_from(short.as_str()).unwrap_or_default())
+            .ok();
         file.indicator.mean.push(data.indicator_norm.mean[k]).ok();
         file.indicator.std.push(data.indicator_norm.std[k]).ok();
     }
@@ -479,7 +503,8 @@ fn export_with<const H: usize>(
     if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }
-    std::fs::write(&args.out, &buf).with_context(|| format!("cannot write {}", args.out.display()))?;
+    std::fs::write(&args.out, &buf)
+        .with_context(|| format!("cannot write {}", args.out.display()))?;
     let sha = sha256_hex(&buf);
     // Parity, through the file as written.
     let loaded = load_model_file(&args.out)?;
@@ -567,8 +592,11 @@ fn export_with<const H: usize>(
     std::fs::write(&golden_path, serde_json::to_string(&golden)? + "\n")
         .with_context(|| format!("cannot write {}", golden_path.display()))?;
     let card_path = sibling(&args.out, "md");
-    std::fs::write(&card_path, model_card(args, cfg, data, &parity, &sha, len, &ranges))
-        .with_context(|| format!("cannot write {}", card_path.display()))?;
+    std::fs::write(
+        &card_path,
+        model_card(args, cfg, data, &parity, &sha, len, &ranges),
+    )
+    .with_context(|| format!("cannot write {}", card_path.display()))?;
     eprintln!(
         "wrote {} ({len} bytes, sha256 {sha}), {}, {}",
         args.out.display(),
@@ -604,7 +632,10 @@ fn argmax(v: &[f32]) -> usize {
 
 /// `dir/stem.ext` beside `path`.
 pub fn sibling(path: &Path, ext: &str) -> PathBuf {
-    let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
     path.with_file_name(format!("{stem}.{ext}"))
 }
 
@@ -637,30 +668,72 @@ fn model_card(
     len: usize,
     ranges: &Ranges,
 ) -> String {
-    let file = args.out.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let file = args
+        .out
+        .file_name()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
     let mut s = String::new();
     let _ = writeln!(s, "# Model card: `{file}`\n");
     let _ = writeln!(s, "| | |\n|---|---|");
-    let _ = writeln!(s, "| file | `{file}`, {len} bytes, model file format v{} |", model_file::FORMAT_VERSION);
+    let _ = writeln!(
+        s,
+        "| file | `{file}`, {len} bytes, model file format v{} |",
+        model_file::FORMAT_VERSION
+    );
     let _ = writeln!(s, "| sha256 | `{sha}` |");
     let _ = writeln!(s, "| created | {} |", today());
     let _ = writeln!(s, "| architecture | DS-STGAT, int8 (`{ARCH_INT8}`): embedding → GAT (1 head) → GRU → attention pooling → class and indicator heads, H = {}, W_c folded into both heads |", cfg.hidden);
-    let _ = writeln!(s, "| nodes | {} (missing channels masked) |", NODES.join(", "));
+    let _ = writeln!(
+        s,
+        "| nodes | {} (missing channels masked) |",
+        NODES.join(", ")
+    );
     let _ = writeln!(s, "| input | {STEPS} steps × {N_NODES} nodes × {FEATURES} core features per 2048-sample window at 12 kHz (5 kHz band limit) |");
     let _ = writeln!(s, "| classes | {} |", data.classes().join(", "));
     let _ = writeln!(s, "| data | CWRU bearing data (`{}`), protocol `{}`: {} train windows from {} records, {} test windows from {} records; no window overlaps across the split |",
         args.data.display(), data.protocol.name(), data.train.len(), data.train.n_records(), data.test.len(), data.test.n_records());
-    let _ = writeln!(s, "| training | burn {}, seed {}, {} epochs, batch {}, Adam lr {} (cosine) |", "0.22.1", cfg.seed, cfg.epochs, cfg.batch_size, cfg.learning_rate);
+    let _ = writeln!(
+        s,
+        "| training | burn 0.22.1, seed {}, {} epochs, batch {}, Adam lr {} (cosine) |",
+        cfg.seed, cfg.epochs, cfg.batch_size, cfg.learning_rate
+    );
     let _ = writeln!(s, "| quantization | post-training, calibrated by max-abs on the {} training windows; per-output-channel symmetric int8 weights, i32 biases, int8 activations, integer requantization (multiplier + shift, round half away from zero); sigmoid/tanh/exp as LUTs |", data.train.len());
-    let _ = writeln!(s, "| input scale | {:.5} per code (max |normalized feature| {:.2}) |", ranges.input.max_abs() / 127.0, ranges.input.max_abs());
+    let _ = writeln!(
+        s,
+        "| input scale | {:.5} per code (max |normalized feature| {:.2}) |",
+        ranges.input.max_abs() / 127.0,
+        ranges.input.max_abs()
+    );
     let _ = writeln!(s, "\n## Parity on the test side ({} windows)\n", p.windows);
     let _ = writeln!(s, "| metric | value |\n|---|---|");
-    let _ = writeln!(s, "| burn float accuracy | {:.2} % |", 100.0 * p.float_accuracy);
-    let _ = writeln!(s, "| int8 core accuracy | {:.2} % |", 100.0 * p.int8_accuracy);
-    let _ = writeln!(s, "| accuracy difference | {:+.2} points |", 100.0 * (p.int8_accuracy - p.float_accuracy));
+    let _ = writeln!(
+        s,
+        "| burn float accuracy | {:.2} % |",
+        100.0 * p.float_accuracy
+    );
+    let _ = writeln!(
+        s,
+        "| int8 core accuracy | {:.2} % |",
+        100.0 * p.int8_accuracy
+    );
+    let _ = writeln!(
+        s,
+        "| accuracy difference | {:+.2} points |",
+        100.0 * (p.int8_accuracy - p.float_accuracy)
+    );
     let _ = writeln!(s, "| class agreement | {:.2} % |", 100.0 * p.agreement);
-    let _ = writeln!(s, "| max \\|Δlogit\\| burn vs int8 | {:.4} ({:.2} % of the window's logit range) |", p.max_logit_diff, 100.0 * p.max_relative_logit_diff);
-    let _ = writeln!(s, "| max \\|Δlogit\\| burn vs core float reference | {:.2e} (weight mapping check) |", p.max_reference_diff);
+    let _ = writeln!(
+        s,
+        "| max \\|Δlogit\\| burn vs int8 | {:.4} ({:.2} % of the window's logit range) |",
+        p.max_logit_diff,
+        100.0 * p.max_relative_logit_diff
+    );
+    let _ = writeln!(
+        s,
+        "| max \\|Δlogit\\| burn vs core float reference | {:.2e} (weight mapping check) |",
+        p.max_reference_diff
+    );
     let _ = writeln!(s, "\nGolden vectors: `{}` ({} windows; the int8 logit codes are exact, the burn logits within a relative tolerance of {}).", sibling(Path::new(&file), "golden.json").display(), args.golden.max(data.classes().len()), GOLDEN_RELATIVE_TOLERANCE);
     let _ = writeln!(s, "\n## Reproduce\n\n```sh\ncargo run --release -p pumptwin-trainer --bin pumptwin -- train --data {} --protocol {} --out out/train-{} --seed {} --epochs {}\ncargo run --release -p pumptwin-trainer --bin pumptwin -- export --model out/train-{}/model.bpk --data {} --out {}\ncargo run --release -p pumptwin-trainer --bin pumptwin -- eval --model {} --data {} --protocol {} --out out/eval-int8\n```",
         args.data.display(), data.protocol.name(), data.protocol.name(), cfg.seed, cfg.epochs,
