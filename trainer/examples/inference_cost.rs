@@ -66,7 +66,11 @@ fn main() -> anyhow::Result<()> {
             t0 = Instant::now();
             for _ in 0..reps {
                 let out = model.forward(x.clone(), adj.clone(), mask.clone());
-                let v = out.logits.into_data().try_into_vec::<f32>().unwrap_or_default();
+                let v = out
+                    .logits
+                    .into_data()
+                    .try_into_vec::<f32>()
+                    .unwrap_or_default();
                 sink += black_box(v[0]) as i64;
             }
         }

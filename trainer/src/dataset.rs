@@ -454,6 +454,23 @@ impl Dataset {
         sets.iter().map(BTreeSet::len).collect()
     }
 
+    /// The windows where `keep` is true, in order.
+    pub fn select(&self, keep: &[bool]) -> Self {
+        let mut out = Self::default();
+        for (k, _) in keep.iter().enumerate().filter(|(_, &m)| m) {
+            let (xw, aw) = (Self::X_PER_WINDOW, Self::ADJ_PER_WINDOW);
+            out.x.extend_from_slice(&self.x[k * xw..(k + 1) * xw]);
+            out.adj.extend_from_slice(&self.adj[k * aw..(k + 1) * aw]);
+            out.mask
+                .extend_from_slice(&self.mask[k * N_NODES..(k + 1) * N_NODES]);
+            out.indicators
+                .extend_from_slice(&self.indicators[k * N_INDICATORS..(k + 1) * N_INDICATORS]);
+            out.label.push(self.label[k]);
+            out.record.push(self.record[k]);
+        }
+        out
+    }
+
     /// Distinct records.
     pub fn n_records(&self) -> usize {
         self.record.iter().collect::<BTreeSet<_>>().len()

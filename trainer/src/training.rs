@@ -102,6 +102,13 @@ pub struct TrainConfig {
     /// Class-weighted cross-entropy (`w_c = n / (C·n_c)`); plain CE when false.
     #[config(default = true)]
     pub class_weighted: bool,
+    /// Node dropout during training: each present node of a training window is masked
+    /// with this probability (at least one node is kept). It breaks the acquisition
+    /// shortcut "BA channel missing ⇒ normal" (only the normal record lacks BA) and
+    /// teaches the model to diagnose from any subset of its sensors, as a gateway
+    /// with a failed channel must.
+    #[config(default = 0.2)]
+    pub node_dropout: f64,
     /// Protocol trained on (filled in by `train`).
     #[config(default = "String::from(\"time-block\")")]
     pub protocol: String,
@@ -327,6 +334,31 @@ pub fn accuracy(pred: &[usize], labels: &[i64]) -> f64 {
     ok as f64 / pred.len() as f64
 }
 
+/// The node mask of the windows `idx` with each present node dropped with
+/// probability `p` (one present node, drawn at random, is kept if all would go).
+fn dropout_mask(
+    ds: &Dataset,
+    idx: &[usize],
+    p: f64,
+    rng: &mut Xoshiro128pp,
+    device: &Device,
+) -> Tensor<2> {
+    let mut mask = Vec::with_capacity(idx.len() * N_NODES);
+    for &k in idx {
+        let present = &ds.mask[k * N_NODES..(k + 1) * N_NODES];
+        let mut keep: Vec<bool> = present.iter().map(|&m| m && rng.uniform() >= p).collect();
+        if !keep.iter().any(|&m| m) {
+            let nodes: Vec<usize> = (0..N_NODES).filter(|&i| present[i]).collect();
+            if !nodes.is_empty() {
+                let pick = ((rng.uniform() * nodes.len() as f64) as usize).min(nodes.len() - 1);
+                keep[nodes[pick]] = true;
+            }
+        }
+        mask.extend(keep.iter().map(|&m| if m { 1.0f32 } else { 0.0 }));
+    }
+    Tensor::from_data(TensorData::new(mask, [idx.len(), N_NODES]), device)
+}
+
 /// Fisher–Yates shuffle from the seeded stream.
 fn shuffle(v: &mut [usize], rng: &mut Xoshiro128pp) {
     for i in (1..v.len()).rev() {
@@ -369,7 +401,10 @@ pub fn train(
         let (mut loss_sum, mut ce_sum, mut mse_sum, mut steps) = (0.0f64, 0.0f64, 0.0f64, 0usize);
         let mut correct = 0usize;
         for chunk in order.chunks(cfg.batch_size.max(1)) {
-            let batch = Batch::new(&data.train, chunk, &device);
+            let mut batch = Batch::new(&data.train, chunk, &device);
+            if cfg.node_dropout > 0.0 {
+                batch.mask = dropout_mask(&data.train, chunk, cfg.node_dropout, &mut rng, &device);
+            }
             let w: Vec<f32> = chunk
                 .iter()
                 .map(|&k| weights[data.train.label[k] as usize])
@@ -614,6 +649,15 @@ fn print_report(report: &MetricsReport) {
         .map(|p| format!("{} dB {:.1} %", p.snr_db, 100.0 * p.accuracy))
         .collect();
     eprintln!("noise: {}", curve.join(", "));
+    let masked: Vec<String> = report
+        .node_masked
+        .iter()
+        .map(|p| format!("{} {:.1} %", p.node, 100.0 * p.fault_only_accuracy))
+        .collect();
+    eprintln!(
+        "fault-only accuracy with one node masked: {}",
+        masked.join(", ")
+    );
 }
 
 /// Run `pumptwin train`.

@@ -1,0 +1,347 @@
+//! Firmware-like probe of `pumptwin-core` on a Cortex-M4F (`thumbv7em-none-eabihf`):
+//! decode the shipped int8 model from flash into a static, build the int8 DS-STGAT,
+//! run one inference on the first golden window, check the logit codes exactly, and
+//! measure the peak stack of each phase by painting the free stack. Output and exit
+//! status go through semihosting (QEMU `mps2-an386`, see `run.sh`).
+
+#![no_std]
+#![no_main]
+
+use core::arch::asm;
+use core::fmt::Write as _;
+use core::mem::{size_of, MaybeUninit};
+use core::ptr::{addr_of, addr_of_mut};
+
+use cortex_m_rt::{entry, exception, ExceptionFrame};
+use cortex_m_semihosting::{debug, hio};
+use pumptwin_core::dsstgat::{DsStgat, Output, Scratch};
+use pumptwin_core::graph::NodeMask;
+use pumptwin_core::model_file::{self, ModelFile};
+
+mod golden {
+    use pumptwin_core::graph::Adjacency;
+    include!(concat!(env!("OUT_DIR"), "/golden.rs"));
+}
+use golden::{F, N, T};
+
+/// The shipped model's int8 network: `F` = 20 features, `H` = 32, room for 16 classes
+/// and 8 indicators (the shipped heads are zero-padded up to these).
+type Net = DsStgat<F, 32, 16, 8>;
+type NetScratch = Scratch<T, N, F, 32>;
+type NetOutput = Output<16, 8>;
+
+/// The shipped model file, in flash.
+static MODEL_BYTES: &[u8] = include_bytes!("../../models/dsstgat-cwru-tb.ptm");
+
+// ---------------------------------------------------------------------------------
+// Storage the firmware owns. All three are zero-initialised, so they live in .bss.
+// ---------------------------------------------------------------------------------
+
+/// The decoded model. All-zero is a valid `ModelFile`: its fields are integers,
+/// floats and `heapless` `Vec`/`String`s (a length and a `MaybeUninit` buffer), so a
+/// zeroed value is a model with empty buffers, which `decode_into` then overwrites.
+static mut MODEL: MaybeUninit<ModelFile> = MaybeUninit::zeroed();
+/// The int8 network, written once by `from_model_file`.
+#[cfg(not(feature = "net-on-stack"))]
+static mut NET: MaybeUninit<Net> = MaybeUninit::uninit();
+/// Inference scratch (`const fn new`, zeroed).
+static mut SCRATCH: NetScratch = Scratch::new();
+
+// ---------------------------------------------------------------------------------
+// Stack painting
+// ---------------------------------------------------------------------------------
+
+extern "C" {
+    /// cortex-m-rt: the first free RAM address after .data/.bss/.uninit (the bottom
+    /// of the region the stack may grow into).
+    static __sheap: u32;
+    /// cortex-m-rt: the initial stack pointer, `ORIGIN(RAM) + LENGTH(RAM)`.
+    static _stack_start: u32;
+}
+
+const PAINT: u32 = 0xDEAD_BEEF;
+
+fn stack_bottom() -> usize {
+    // Only the address of the linker symbol is taken (no read: safe).
+    (addr_of!(__sheap) as usize + 3) & !3
+}
+
+fn stack_top() -> usize {
+    // Only the address of the linker symbol is taken (no read: safe).
+    addr_of!(_stack_start) as usize
+}
+
+#[inline(never)]
+fn sp() -> usize {
+    let sp: usize;
+    // SAFETY: reads the stack pointer.
+    unsafe { asm!("mov {}, sp", out(reg) sp, options(nomem, nostack, preserves_flags)) };
+    sp
+}
+
+/// Fill the free stack, from the bottom up to (not including) the current stack
+/// pointer, with [`PAINT`]. All in assembly: a Rust loop may read the SP before its
+/// own prologue pushes (shrink-wrapping) and paint over its return address. Nothing
+/// else runs meanwhile (no interrupts are enabled).
+#[inline(always)]
+fn paint() {
+    if cfg!(feature = "no-paint") {
+        return;
+    }
+    // SAFETY: writes only [bottom, sp): unused stack, no live data lives below the SP.
+    unsafe {
+        asm!(
+            "mov {end}, sp",
+            "bic {end}, {end}, #3",
+            "2:",
+            "cmp {p}, {end}",
+            "bhs 3f",
+            "str {pat}, [{p}], #4",
+            "b 2b",
+            "3:",
+            p = inout(reg) stack_bottom() => _,
+            end = out(reg) _,
+            pat = in(reg) PAINT,
+            options(nostack),
+        );
+    }
+}
+
+/// Peak stack since the last [`paint`], measured from the initial SP (so it includes
+/// the reset handler's and `main`'s frames): `_stack_start` minus the lowest word
+/// that no longer holds the paint.
+#[inline(never)]
+fn peak_stack() -> usize {
+    if cfg!(feature = "no-paint") {
+        return 0;
+    }
+    let top = stack_top();
+    let mut p = stack_bottom();
+    while p < top {
+        // SAFETY: reads RAM within [bottom, top).
+        if unsafe { core::ptr::read_volatile(p as *const u32) } != PAINT {
+            break;
+        }
+        p += 4;
+    }
+    top - p
+}
+
+// ---------------------------------------------------------------------------------
+// The three phases, each its own frame so that its stack can be told apart.
+// ---------------------------------------------------------------------------------
+
+#[inline(never)]
+fn phase_decode(model: &mut ModelFile) -> pumptwin_core::Result<()> {
+    model_file::decode_into(core::hint::black_box(MODEL_BYTES), model)
+}
+
+#[cfg(not(feature = "net-on-stack"))]
+#[inline(never)]
+fn phase_build<'a>(
+    model: &ModelFile,
+    place: &'a mut MaybeUninit<Net>,
+) -> pumptwin_core::Result<&'a Net> {
+    Ok(place.write(Net::from_model_file(model)?))
+}
+
+#[cfg(not(feature = "net-on-stack"))]
+#[inline(never)]
+fn phase_forward(
+    net: &Net,
+    scratch: &mut NetScratch,
+    out: &mut NetOutput,
+) -> pumptwin_core::Result<()> {
+    net.forward::<T, N>(
+        core::hint::black_box(&golden::X),
+        core::hint::black_box(&golden::ADJ),
+        &NodeMask(golden::MASK),
+        out,
+        scratch,
+    )
+}
+
+/// `net-on-stack`: the network is a local of the function that runs it.
+#[cfg(feature = "net-on-stack")]
+#[inline(never)]
+fn phase_build_and_forward(
+    model: &ModelFile,
+    scratch: &mut NetScratch,
+    out: &mut NetOutput,
+) -> pumptwin_core::Result<()> {
+    let net = Net::from_model_file(model)?;
+    net.forward::<T, N>(
+        core::hint::black_box(&golden::X),
+        core::hint::black_box(&golden::ADJ),
+        &NodeMask(golden::MASK),
+        out,
+        scratch,
+    )
+}
+
+// ---------------------------------------------------------------------------------
+
+/// Semihosting stdout (opened once; `hio::hstdout` costs a host call each time).
+struct Console(Option<hio::HostStream>);
+
+impl core::fmt::Write for Console {
+    fn write_str(&mut self, s: &str) -> core::fmt::Result {
+        match &mut self.0 {
+            Some(h) => h.write_str(s),
+            None => Ok(()),
+        }
+    }
+}
+
+macro_rules! say {
+    ($c:expr, $($arg:tt)*) => {{ let _ = writeln!($c, $($arg)*); }};
+}
+
+fn fail(c: &mut Console, what: &str, e: pumptwin_core::Error) -> ! {
+    say!(c, "FAIL: {}: {:?}", what, e);
+    debug::exit(debug::EXIT_FAILURE);
+    loop {}
+}
+
+#[entry]
+fn main() -> ! {
+    let mut c = Console(hio::hstdout().ok());
+    let top = stack_top();
+    let bottom = stack_bottom();
+    let before = top - sp();
+    say!(c, "pumptwin firmware probe (thumbv7em-none-eabihf)");
+    say!(c, "model sha256 {} (checked at build time)", golden::MODEL_SHA256);
+    say!(
+        c,
+        "model file {} B in flash; size_of ModelFile {} B, DsStgat<20,32,16,8> {} B, Scratch<8,3,20,32> {} B, Output {} B",
+        MODEL_BYTES.len(),
+        size_of::<ModelFile>(),
+        size_of::<Net>(),
+        size_of::<NetScratch>(),
+        size_of::<NetOutput>()
+    );
+    {
+        use pumptwin_core::quant::{GatLayer, GruCell, QLinear};
+        say!(
+            c,
+            "size_of QLinear<32,32> {} B, GatLayer<32,32> {} B, GruCell<32,32> {} B, Result<DsStgat> {} B",
+            size_of::<QLinear<32, 32>>(),
+            size_of::<GatLayer<32, 32>>(),
+            size_of::<GruCell<32, 32>>(),
+            size_of::<pumptwin_core::Result<Net>>()
+        );
+    }
+    say!(
+        c,
+        "stack region [{:#010x}, {:#010x}) = {} B; used before painting {} B",
+        bottom,
+        top,
+        top - bottom,
+        before
+    );
+
+    // SAFETY: `main` runs once and is the only code touching these statics; each is
+    // borrowed exactly once here. The zeroed `MODEL` is a valid `ModelFile` (see it).
+    let (model, scratch) = unsafe {
+        (
+            (*addr_of_mut!(MODEL)).assume_init_mut(),
+            &mut *addr_of_mut!(SCRATCH),
+        )
+    };
+    let mut out = NetOutput::default();
+
+    // (a) decode
+    paint();
+    let r = phase_decode(model);
+    let s_decode = peak_stack();
+    if let Err(e) = r {
+        fail(&mut c, "decode_into", e);
+    }
+    say!(
+        c,
+        "decoded '{}': N={} F={} T={} H={}/{} C={} K={}",
+        model.model_name.as_str(),
+        model.dims.nodes,
+        model.dims.features,
+        model.dims.steps,
+        model.dims.gat_hidden,
+        model.dims.gru_hidden,
+        model.dims.classes,
+        model.dims.indicators
+    );
+    say!(c, "stack peak (a) decode_into:      {:6} B", s_decode);
+
+    #[cfg(not(feature = "net-on-stack"))]
+    {
+        // (b) build the network into its static
+        // SAFETY: borrowed once, see above.
+        let place = unsafe { &mut *addr_of_mut!(NET) };
+        paint();
+        let r = phase_build(model, place);
+        let s_build = peak_stack();
+        let net = match r {
+            Ok(net) => net,
+            Err(e) => fail(&mut c, "from_model_file", e),
+        };
+        say!(c, "stack peak (b) from_model_file:  {:6} B (network in a static)", s_build);
+
+        // (c) one inference
+        paint();
+        let r = phase_forward(net, scratch, &mut out);
+        let s_forward = peak_stack();
+        if let Err(e) = r {
+            fail(&mut c, "forward", e);
+        }
+        say!(c, "stack peak (c) forward::<8, 3>:  {:6} B", s_forward);
+        say!(c, "STACK decode={} build={} forward={} max={}", s_decode, s_build, s_forward,
+            s_decode.max(s_build).max(s_forward));
+    }
+    #[cfg(feature = "net-on-stack")]
+    {
+        paint();
+        let r = phase_build_and_forward(model, scratch, &mut out);
+        let s_both = peak_stack();
+        if let Err(e) = r {
+            fail(&mut c, "from_model_file + forward", e);
+        }
+        say!(c, "stack peak (b+c) from_model_file + forward, network on the stack: {:6} B", s_both);
+        say!(c, "STACK decode={} build+forward={} max={}", s_decode, s_both, s_decode.max(s_both));
+    }
+
+    // The console itself (formatting + semihosting) for reference.
+    paint();
+    say!(c, "logits {:?} class {}", &out.logits[..golden::CLASSES], out.class);
+    let s_print = peak_stack();
+    say!(c, "stack peak of one formatted semihosting print: {} B", s_print);
+
+    let ok = out.logits[..golden::CLASSES] == golden::INT8_LOGITS
+        && out.logits[golden::CLASSES..].iter().all(|&v| v == 0)
+        && out.class == golden::INT8_CLASS;
+    if ok {
+        say!(c, "PASS: int8 logit codes equal the golden codes exactly; class {}", out.class);
+        debug::exit(debug::EXIT_SUCCESS);
+    } else {
+        say!(c, "expected {:?} class {}", golden::INT8_LOGITS, golden::INT8_CLASS);
+        say!(c, "FAIL: int8 logits differ from the golden codes");
+        debug::exit(debug::EXIT_FAILURE);
+    }
+    loop {}
+}
+
+#[exception]
+unsafe fn HardFault(ef: &ExceptionFrame) -> ! {
+    if let Ok(mut h) = hio::hstdout() {
+        let _ = writeln!(h, "FAIL: HardFault at pc {:#010x}", ef.pc());
+    }
+    debug::exit(debug::EXIT_FAILURE);
+    loop {}
+}
+
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo<'_>) -> ! {
+    if let Ok(mut h) = hio::hstdout() {
+        let _ = writeln!(h, "FAIL: panic: {}", info);
+    }
+    debug::exit(debug::EXIT_FAILURE);
+    loop {}
+}
