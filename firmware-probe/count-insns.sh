@@ -34,8 +34,9 @@ for m in marks:
     entry[int(e, 16) & ~1] = name
     ret[name] = int(r, 16)
 counts = {n: 0 for n in ret}
+by_symbol = {n: {} for n in ret}
 total, cur = 0, None
-pat = re.compile(rb"^Trace \d+: \S+ \[[0-9a-f]+/([0-9a-f]+)/")
+pat = re.compile(rb"^Trace \d+: \S+ \[[0-9a-f]+/([0-9a-f]+)/[^\]]*\] ?(.*)$")
 with open(fifo, "rb") as f:
     for line in f:
         m = pat.match(line)
@@ -50,8 +51,13 @@ with open(fifo, "rb") as f:
             cur = None
         if cur is not None:
             counts[cur] += 1
+            sym = m.group(2)
+            by_symbol[cur][sym] = by_symbol[cur].get(sym, 0) + 1
 for n in ret:
     print(f"INSNS {n}: {counts[n]}")
+    top = sorted(by_symbol[n].items(), key=lambda kv: -kv[1])[:5]
+    for sym, k in top:
+        print(f"    {k:9d}  {sym.decode(errors='replace')[:110]}")
 print(f"INSNS total (reset to exit, incl. semihosting prints): {total}")
 PY
 counter=$!

@@ -13,7 +13,8 @@
 //! | [`pipeline`] | frame classification and health counters, windows, core features per channel |
 //! | [`explain`] | envelope peak → nearest kinematic line (shaft, BPFO, BPFI, BSF, FTF) |
 //! | [`report`] | the JSON line of a window |
-//! | [`diagnosis`] | the extension point for the trained model (`--model`, later) |
+//! | [`diagnosis`] | the extension point for diagnosers |
+//! | [`model`] | the int8 DS-STGAT from a model file (`--model`) as a diagnoser |
 //! | [`pace`] | replay at full speed or following the log's timestamps |
 //! | [`gateway`] | the run loop |
 //!
@@ -27,6 +28,7 @@ pub mod candump;
 pub mod diagnosis;
 pub mod explain;
 pub mod gateway;
+pub mod model;
 pub mod pace;
 pub mod pipeline;
 pub mod report;

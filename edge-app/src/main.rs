@@ -5,11 +5,13 @@
 //! physics explanation per window, and writes one JSON object per window.
 //!
 //! ```text
-//! pumptwin-edge --replay FILE.log --sensors MAP.toml [--out FILE.jsonl] [--speed max|realtime]
+//! pumptwin-edge --replay FILE.log --sensors MAP.toml [--model MODEL.ptm] [--out FILE.jsonl]
+//!               [--speed max|realtime]
 //!
 //!   --replay FILE.log   candump -l log to replay; `-` reads standard input, e.g. live:
 //!                       candump -L can0 | pumptwin-edge --replay - --sensors map.toml
 //!   --sensors MAP.toml  sensor map (machine speed, bearing, fs; channel ids and layouts)
+//!   --model MODEL.ptm   int8 model file: adds the model's diagnosis to every window
 //!   --out FILE.jsonl    append the JSON lines here instead of standard output
 //!   --speed max         as fast as possible (default)
 //!   --speed realtime    sleep to follow the log's timestamps
@@ -51,6 +53,7 @@ use anyhow::Context;
 use clap::{Parser, ValueEnum};
 use pumptwin_edge::candump::CandumpReplay;
 use pumptwin_edge::gateway::Gateway;
+use pumptwin_edge::model::ModelDiagnoser;
 use pumptwin_edge::pace::{Pacer, Speed};
 use pumptwin_edge::pipeline::Pipeline;
 use pumptwin_edge::sensor_map::SensorMap;
@@ -84,6 +87,9 @@ struct Cli {
     /// Replay speed.
     #[arg(long, value_enum, default_value_t = SpeedArg::Max)]
     speed: SpeedArg,
+    /// Int8 model file (`pumptwin export`): adds a `"diagnosis"` to every window.
+    #[arg(long, value_name = "MODEL.ptm")]
+    model: Option<PathBuf>,
 }
 
 fn main() -> anyhow::Result<()> {
@@ -110,9 +116,18 @@ fn main() -> anyhow::Result<()> {
         SpeedArg::Max => Speed::Max,
         SpeedArg::Realtime => Speed::Realtime,
     };
-    // Extension point: `--model FILE` will add `.with_diagnoser(...)` here
-    // (see `pumptwin_edge::diagnosis`).
-    let mut gateway = Gateway::new(Pipeline::new(map), Pacer::new(speed));
+    let pipeline = Pipeline::new(map).context("building the signal path")?;
+    let mut gateway = Gateway::new(pipeline, Pacer::new(speed));
+    if let Some(path) = &cli.model {
+        let diagnoser = ModelDiagnoser::load(path, gateway.pipeline().channel_names())?;
+        let unmapped: Vec<&str> = diagnoser.unmapped().collect();
+        if !unmapped.is_empty() {
+            eprintln!(
+                "pumptwin-edge: model sensors {unmapped:?} are not in the sensor map: masked"
+            );
+        }
+        gateway = gateway.with_diagnoser(Box::new(diagnoser));
+    }
     let mut source = CandumpReplay::new(input);
     let result = gateway.run(&mut source, &mut out, &mut io::stderr());
     let health = gateway.pipeline().health();

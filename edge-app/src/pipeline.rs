@@ -43,6 +43,17 @@
 //! channel furthest ahead (`realignments`). A partial window at the end of the input is
 //! not reported.
 //!
+//! # Band limit
+//!
+//! Every sample goes through the core's streaming FIR low-pass (101-tap Blackman
+//! sinc at `min(5 kHz, 0.45·fs)`) before its ring: the same filter, taps and cutoff
+//! the trainer applies to every record (zero-phase there), so the model sees the
+//! features it was trained on. The causal filter delays every channel by the same
+//! 50 samples, which shifts the window grid in time but changes no value: in the
+//! interior of a stream the filtered samples equal the trainer's exactly. A channel
+//! that re-joins after a dropout restarts its filter (the first 100 samples after a
+//! restart are its transient; that window is already marked degraded).
+//!
 //! # Per channel and window
 //!
 //! ```text
@@ -63,6 +74,7 @@ use pumptwin_core::features::{
     FEATURE_DIM, FEATURE_NAMES,
 };
 use pumptwin_core::fft::Complex32;
+use pumptwin_core::fir::FirLowpass;
 use serde::Serialize;
 
 /// Samples per window.
@@ -71,6 +83,11 @@ pub const WINDOW: usize = 2048;
 pub const HOP: usize = WINDOW / 2;
 /// Segments (graph steps) per window.
 pub const SEGMENTS: usize = pumptwin_core::features::STANDARD_SEGMENTS;
+/// Taps of the band-limit filter: the trainer's native-rate filter
+/// (`trainer::data::preprocess::BAND_LIMIT_TAPS`).
+pub const BAND_LIMIT_TAPS: usize = 101;
+/// Highest cutoff as a fraction of the rate (as the trainer's preprocessing).
+pub const MAX_CUTOFF_FRACTION: f32 = 0.45;
 /// Ring size per channel.
 pub const RING: usize = 2 * WINDOW;
 const _: () = assert!(RING >= WINDOW + MAX_SAMPLES_PER_FRAME && HOP >= MAX_SAMPLES_PER_FRAME);
@@ -358,6 +375,7 @@ pub struct Pushed {
 #[derive(Debug)]
 struct ChannelState {
     spec: Channel,
+    fir: Box<FirLowpass<BAND_LIMIT_TAPS>>,
     ring: Box<SampleRing<RING>>,
     expected_seq: Option<u8>,
     pending_gap: bool,
@@ -390,19 +408,28 @@ pub struct Pipeline {
 
 impl Pipeline {
     /// A pipeline for a validated sensor map.
-    pub fn new(map: SensorMap) -> Self {
+    ///
+    /// # Errors
+    /// The band-limit filter cannot be designed for the map's rate (not for a
+    /// validated map: its rate is above the envelope band).
+    pub fn new(map: SensorMap) -> Result<Self, pumptwin_core::Error> {
         let cfg = feature_config(&map.machine);
+        let fs = map.machine.fs_hz;
+        let cutoff = cfg.band_limit_hz.min(MAX_CUTOFF_FRACTION * fs);
         let channels = map
             .channels
             .into_iter()
-            .map(|spec| ChannelState {
-                spec,
-                ring: Box::new(SampleRing::new()),
-                expected_seq: None,
-                pending_gap: false,
+            .map(|spec| {
+                Ok(ChannelState {
+                    spec,
+                    fir: Box::new(FirLowpass::new(cutoff, fs)?),
+                    ring: Box::new(SampleRing::new()),
+                    expected_seq: None,
+                    pending_gap: false,
+                })
             })
-            .collect();
-        Self {
+            .collect::<Result<_, pumptwin_core::Error>>()?;
+        Ok(Self {
             machine: map.machine,
             cfg,
             channels,
@@ -419,7 +446,7 @@ impl Pipeline {
                 env_spectrum: [0.0; WINDOW / 2 + 1],
                 median: [0.0; WINDOW / 2 + 1],
             }),
-        }
+        })
     }
 
     /// Counters so far.
@@ -549,6 +576,7 @@ impl Pipeline {
                 .fold(self.next_start, u64::max);
             let ch = &mut self.channels[channel];
             ch.ring.restart_at(now);
+            ch.fir.reset();
             ch.pending_gap = false;
             self.health.realignments += 1;
         }
@@ -559,7 +587,7 @@ impl Pipeline {
         let ch = &mut self.channels[channel];
         let mut gap = std::mem::take(&mut ch.pending_gap);
         for &x in &self.decoded {
-            ch.ring.push(x, gap);
+            ch.ring.push(ch.fir.push(x), gap);
             gap = false;
         }
         while self

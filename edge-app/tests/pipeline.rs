@@ -15,7 +15,7 @@ use serde_json::Value;
 
 /// Run frames (or errors) through a gateway; the JSON lines, parsed, and the counters.
 fn run_bus(map_text: &str, items: Vec<Result<Frame, SourceError>>) -> (Vec<Value>, Health, String) {
-    let mut gateway = Gateway::new(Pipeline::new(map(map_text)), Pacer::new(Speed::Max));
+    let mut gateway = Gateway::new(Pipeline::new(map(map_text)).unwrap(), Pacer::new(Speed::Max));
     let mut out = Vec::new();
     let mut log = Vec::new();
     let health = gateway
@@ -96,7 +96,7 @@ fn end_to_end_bpfi_impacts_are_explained_as_bpfi() {
     let n = 24_000;
     let m = map(MAP_DE_FE);
     let log = log_text(&encode(&m, &bpfi_signals(n), 0));
-    let mut gateway = Gateway::new(Pipeline::new(m), Pacer::new(Speed::Max));
+    let mut gateway = Gateway::new(Pipeline::new(m).unwrap(), Pacer::new(Speed::Max));
     let mut out = Vec::new();
     let health = gateway
         .run(
@@ -241,7 +241,7 @@ fn counters_add_up_with_injected_faults() {
 
 #[test]
 fn each_frame_reports_its_bucket() {
-    let mut p = Pipeline::new(map(MAP_DE_FE));
+    let mut p = Pipeline::new(map(MAP_DE_FE)).unwrap();
     let m = map(MAP_DE_FE);
     let enc = |seq: u8| m.channels[0].encode(&[0.1, 0.2, 0.3, 0.4], seq);
     let padded = |seq: u8, ts: u64| {
@@ -399,7 +399,7 @@ fn a_diagnoser_plugs_in_without_changing_the_rest() {
     let n = 6_144;
     let m = map(MAP_DE_FE);
     let frames = encode(&m, &bpfi_signals(n), 0);
-    let mut gateway = Gateway::new(Pipeline::new(m), Pacer::new(Speed::Max))
+    let mut gateway = Gateway::new(Pipeline::new(m).unwrap(), Pacer::new(Speed::Max))
         .with_diagnoser(Box::new(EnvelopeRule { seen: 0 }));
     let mut out = Vec::new();
     gateway
@@ -426,7 +426,7 @@ fn a_diagnoser_plugs_in_without_changing_the_rest() {
 fn an_unreadable_source_stops_the_run() {
     let items: Vec<Result<Frame, SourceError>> =
         vec![Err(SourceError::Io(std::io::Error::other("bus gone")))];
-    let mut gateway = Gateway::new(Pipeline::new(map(MAP_DE_FE)), Pacer::new(Speed::Max));
+    let mut gateway = Gateway::new(Pipeline::new(map(MAP_DE_FE)).unwrap(), Pacer::new(Speed::Max));
     let e = gateway
         .run(
             &mut ScriptedBus(items.into_iter()),

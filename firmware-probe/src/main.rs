@@ -200,7 +200,7 @@ macro_rules! say {
 fn fail(c: &mut Console, what: &str, e: pumptwin_core::Error) -> ! {
     say!(c, "FAIL: {}: {:?}", what, e);
     debug::exit(debug::EXIT_FAILURE);
-    loop {}
+    halt()
 }
 
 #[entry]
@@ -210,7 +210,11 @@ fn main() -> ! {
     let bottom = stack_bottom();
     let before = top - sp();
     say!(c, "pumptwin firmware probe (thumbv7em-none-eabihf)");
-    say!(c, "model sha256 {} (checked at build time)", golden::MODEL_SHA256);
+    say!(
+        c,
+        "model sha256 {} (checked at build time)",
+        golden::MODEL_SHA256
+    );
     say!(
         c,
         "model file {} B in flash; size_of ModelFile {} B, DsStgat<20,32,16,8> {} B, Scratch<8,3,20,32> {} B, Output {} B",
@@ -283,7 +287,11 @@ fn main() -> ! {
             Ok(net) => net,
             Err(e) => fail(&mut c, "from_model_file", e),
         };
-        say!(c, "stack peak (b) from_model_file:  {:6} B (network in a static)", s_build);
+        say!(
+            c,
+            "stack peak (b) from_model_file:  {:6} B (network in a static)",
+            s_build
+        );
 
         // (c) one inference
         paint();
@@ -293,8 +301,14 @@ fn main() -> ! {
             fail(&mut c, "forward", e);
         }
         say!(c, "stack peak (c) forward::<8, 3>:  {:6} B", s_forward);
-        say!(c, "STACK decode={} build={} forward={} max={}", s_decode, s_build, s_forward,
-            s_decode.max(s_build).max(s_forward));
+        say!(
+            c,
+            "STACK decode={} build={} forward={} max={}",
+            s_decode,
+            s_build,
+            s_forward,
+            s_decode.max(s_build).max(s_forward)
+        );
     }
     #[cfg(feature = "net-on-stack")]
     {
@@ -304,28 +318,56 @@ fn main() -> ! {
         if let Err(e) = r {
             fail(&mut c, "from_model_file + forward", e);
         }
-        say!(c, "stack peak (b+c) from_model_file + forward, network on the stack: {:6} B", s_both);
-        say!(c, "STACK decode={} build+forward={} max={}", s_decode, s_both, s_decode.max(s_both));
+        say!(
+            c,
+            "stack peak (b+c) from_model_file + forward, network on the stack: {:6} B",
+            s_both
+        );
+        say!(
+            c,
+            "STACK decode={} build+forward={} max={}",
+            s_decode,
+            s_both,
+            s_decode.max(s_both)
+        );
     }
 
     // The console itself (formatting + semihosting) for reference.
     paint();
-    say!(c, "logits {:?} class {}", &out.logits[..golden::CLASSES], out.class);
+    say!(
+        c,
+        "logits {:?} class {}",
+        &out.logits[..golden::CLASSES],
+        out.class
+    );
     let s_print = peak_stack();
-    say!(c, "stack peak of one formatted semihosting print: {} B", s_print);
+    say!(
+        c,
+        "stack peak of one formatted semihosting print: {} B",
+        s_print
+    );
 
     let ok = out.logits[..golden::CLASSES] == golden::INT8_LOGITS
         && out.logits[golden::CLASSES..].iter().all(|&v| v == 0)
         && out.class == golden::INT8_CLASS;
     if ok {
-        say!(c, "PASS: int8 logit codes equal the golden codes exactly; class {}", out.class);
+        say!(
+            c,
+            "PASS: int8 logit codes equal the golden codes exactly; class {}",
+            out.class
+        );
         debug::exit(debug::EXIT_SUCCESS);
     } else {
-        say!(c, "expected {:?} class {}", golden::INT8_LOGITS, golden::INT8_CLASS);
+        say!(
+            c,
+            "expected {:?} class {}",
+            golden::INT8_LOGITS,
+            golden::INT8_CLASS
+        );
         say!(c, "FAIL: int8 logits differ from the golden codes");
         debug::exit(debug::EXIT_FAILURE);
     }
-    loop {}
+    halt()
 }
 
 #[exception]
@@ -334,7 +376,7 @@ unsafe fn HardFault(ef: &ExceptionFrame) -> ! {
         let _ = writeln!(h, "FAIL: HardFault at pc {:#010x}", ef.pc());
     }
     debug::exit(debug::EXIT_FAILURE);
-    loop {}
+    halt()
 }
 
 #[panic_handler]
@@ -343,5 +385,12 @@ fn panic(info: &core::panic::PanicInfo<'_>) -> ! {
         let _ = writeln!(h, "FAIL: panic: {}", info);
     }
     debug::exit(debug::EXIT_FAILURE);
-    loop {}
+    halt()
+}
+
+/// After a semihosting exit (which does not return under QEMU): sleep forever.
+fn halt() -> ! {
+    loop {
+        cortex_m::asm::wfi();
+    }
 }

@@ -1,0 +1,249 @@
+//! The trained int8 DS-STGAT as a [`Diagnoser`] (`--model FILE`).
+//!
+//! ```text
+//! FILE → model_file::decode_into (magic, version, CRC, dimensions, values: named errors)
+//!      → InferenceModel (H = 16 or 32), FeatureNorm, GraphConfig, class/sensor/indicator names
+//! per window, node i = the model's sensor name i, looked up among the window's channels:
+//!      x[t][i] = FeatureNorm(rows[t])            computed channel
+//!      mask[i] = false                           not in the sensor map, missing, failed
+//!      A_t     = build_dynamic_graphs(x, mask)   eqs. 1–3, the core's (as in training)
+//!      → int8 embedding → GAT → GRU → pooling → logits (i32) and indicators (i32)
+//! ```
+//!
+//! The output (under `"diagnosis"` in the window's line):
+//!
+//! ```text
+//! {"model": "dsstgat-cwru-tb", "status": "ok" | "degraded" | "no_signal",
+//!  "class": "IR007" | null, "confidence": 0.98, "probabilities": {"normal": …, …},
+//!  "masked_nodes": {"BA": "missing"}, "indicators": {"impact_intensity": …, …}}
+//! ```
+//!
+//! A masked node is said so, with why; the model was trained with node dropout, so it
+//! diagnoses from any subset of its sensors. A node the sensor map does not name is a
+//! configuration (masked, status unaffected); a mapped channel that is missing or
+//! failed, or a discontinuity, makes the diagnosis `"degraded"`, so a consumer can
+//! weigh it. With no node present there is no class (`"no_signal"`), never a guess.
+
+use std::path::Path;
+
+use pumptwin_core::dsstgat::{
+    probabilities_into, InferenceModel, InferenceScratch, Output, MODEL_CLASSES,
+    MODEL_INDICATORS,
+};
+use pumptwin_core::features::{FeatureNorm, FEATURE_DIM};
+use pumptwin_core::graph::{build_dynamic_graphs, Adjacency, GraphConfig, NodeMask};
+use pumptwin_core::model_file::{self, ModelFile};
+use serde_json::{json, Map, Value};
+
+use crate::diagnosis::{DiagnoseError, Diagnoser};
+use crate::pipeline::{ChannelOutcome, Window, SEGMENTS};
+
+/// Sensor nodes of the models this gateway runs.
+pub const NODES: usize = 3;
+
+/// Why a model file cannot be used.
+#[derive(Debug, thiserror::Error)]
+pub enum ModelLoadError {
+    /// The file cannot be read.
+    #[error("cannot read model {path}: {source}")]
+    Io {
+        /// The file.
+        path: String,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+    /// The core refused the file (magic, version, checksum, dimensions, values).
+    #[error("model {path} is not a valid model file: {source}")]
+    Invalid {
+        /// The file.
+        path: String,
+        /// The core's error.
+        source: pumptwin_core::Error,
+    },
+    /// A valid file this gateway cannot run.
+    #[error("model {path}: {reason}")]
+    Unsupported {
+        /// The file.
+        path: String,
+        /// Why.
+        reason: String,
+    },
+}
+
+/// The int8 model as a diagnoser.
+#[derive(Debug)]
+pub struct ModelDiagnoser {
+    file: Box<ModelFile>,
+    model: InferenceModel,
+    norm: FeatureNorm,
+    graph: GraphConfig<NODES>,
+    /// Model nodes that the sensor map does not name (always masked).
+    unmapped: [bool; NODES],
+    scratch: Box<InferenceScratch<SEGMENTS, NODES>>,
+}
+
+impl ModelDiagnoser {
+    /// Load `path` for a gateway whose sensor map has `channels`.
+    ///
+    /// # Errors
+    /// [`ModelLoadError`]: unreadable, invalid (the core's named error), or not a
+    /// 3-node, 8-step, 20-feature model; a model none of whose sensors the map names.
+    pub fn load<'a>(
+        path: &Path,
+        channels: impl IntoIterator<Item = &'a str>,
+    ) -> Result<Self, ModelLoadError> {
+        let shown = path.display().to_string();
+        let bytes = std::fs::read(path).map_err(|source| ModelLoadError::Io {
+            path: shown.clone(),
+            source,
+        })?;
+        let invalid = |source| ModelLoadError::Invalid {
+            path: shown.clone(),
+            source,
+        };
+        let mut file = Box::<ModelFile>::default();
+        model_file::decode_into(&bytes, &mut file).map_err(invalid)?;
+        let unsupported = |reason: String| ModelLoadError::Unsupported {
+            path: shown.clone(),
+            reason,
+        };
+        let d = file.dims;
+        if usize::from(d.nodes) != NODES
+            || usize::from(d.steps) != SEGMENTS
+            || usize::from(d.features) != FEATURE_DIM
+        {
+            return Err(unsupported(format!(
+                "the model has N = {}, T = {}, F = {}; this gateway runs N = {NODES}, \
+                 T = {SEGMENTS}, F = {FEATURE_DIM}",
+                d.nodes, d.steps, d.features
+            )));
+        }
+        let model = InferenceModel::from_model_file(&file).map_err(invalid)?;
+        let norm = file.feature_norm().map_err(invalid)?;
+        let graph = file.graph_config::<NODES>().map_err(invalid)?;
+        let channels: Vec<&str> = channels.into_iter().collect();
+        let unmapped: [bool; NODES] =
+            std::array::from_fn(|i| !channels.contains(&file.sensor_names()[i].as_str()));
+        if unmapped.iter().all(|&u| u) {
+            return Err(unsupported(format!(
+                "none of the model's sensors {:?} is in the sensor map ({channels:?})",
+                file.sensor_names()
+            )));
+        }
+        Ok(Self {
+            file,
+            model,
+            norm,
+            graph,
+            unmapped,
+            scratch: Box::new((Default::default(), Default::default())),
+        })
+    }
+
+    /// The model's name.
+    pub fn name(&self) -> &str {
+        &self.file.model_name
+    }
+
+    /// The model's class names.
+    pub fn class_names(&self) -> impl Iterator<Item = &str> {
+        self.file.class_names().iter().map(|s| s.as_str())
+    }
+
+    /// The model's sensor names that the sensor map does not name.
+    pub fn unmapped(&self) -> impl Iterator<Item = &str> {
+        self.file
+            .sensor_names()
+            .iter()
+            .zip(self.unmapped)
+            .filter(|(_, u)| *u)
+            .map(|(s, _)| s.as_str())
+    }
+}
+
+impl Diagnoser for ModelDiagnoser {
+    fn diagnose(&mut self, window: &Window) -> Result<Value, DiagnoseError> {
+        let fail = |reason: String| DiagnoseError {
+            window: window.index,
+            reason,
+        };
+        let mut x = [[[0.0f32; FEATURE_DIM]; NODES]; SEGMENTS];
+        let mut mask = NodeMask([false; NODES]);
+        let mut masked = Map::new();
+        let mut dropout = false;
+        for i in 0..NODES {
+            let name = self.file.sensor_names()[i].as_str();
+            let outcome = window
+                .channels
+                .iter()
+                .find(|c| c.name == name)
+                .map(|c| &c.outcome);
+            match outcome {
+                None => {
+                    masked.insert(name.into(), "not in the sensor map".into());
+                }
+                Some(ChannelOutcome::Missing) => {
+                    masked.insert(name.into(), "missing".into());
+                    dropout = true;
+                }
+                Some(ChannelOutcome::Failed(e)) => {
+                    masked.insert(name.into(), format!("failed: {e}").into());
+                    dropout = true;
+                }
+                Some(ChannelOutcome::Computed { features, .. }) => {
+                    for (t, row) in features.rows.iter().enumerate() {
+                        let mut r = *row;
+                        self.norm.apply(&mut r);
+                        x[t][i] = r;
+                    }
+                    mask.0[i] = true;
+                }
+            }
+        }
+        let name = self.name().to_string();
+        if mask.count() == 0 {
+            return Ok(json!({
+                "model": name, "status": "no_signal", "class": null,
+                "masked_nodes": masked,
+            }));
+        }
+        let mut adj = [Adjacency::<NODES>::ZERO; SEGMENTS];
+        build_dynamic_graphs(&self.graph, &x, &mask, &mut adj)
+            .map_err(|e| fail(format!("graph: {e}")))?;
+        let mut out = Output::<MODEL_CLASSES, MODEL_INDICATORS>::default();
+        self.model
+            .forward(&x, &adj, &mask, &mut out, &mut self.scratch)
+            .map_err(|e| fail(format!("inference: {e}")))?;
+        let classes = self.model.classes();
+        let mut p = vec![0.0f32; classes];
+        probabilities_into(&out.logits[..classes], self.model.logit_scale(), &mut p);
+        let mut probs = Map::new();
+        for (c, pc) in self.class_names().zip(&p) {
+            probs.insert(c.into(), json!(round4(*pc)));
+        }
+        let ind = &self.file.indicator;
+        let s = self.model.indicator_scale().get();
+        let mut indicators = Map::new();
+        for k in 0..self.model.indicators() {
+            let z = s * out.indicators[k] as f32;
+            indicators.insert(
+                ind.names[k].as_str().into(),
+                json!(round4(ind.mean[k] + ind.std[k] * z)),
+            );
+        }
+        let degraded = dropout || window.is_degraded();
+        Ok(json!({
+            "model": name,
+            "status": if degraded { "degraded" } else { "ok" },
+            "class": self.file.class_name(out.class),
+            "confidence": round4(p[out.class]),
+            "probabilities": probs,
+            "masked_nodes": masked,
+            "indicators": indicators,
+        }))
+    }
+}
+
+fn round4(v: f32) -> f64 {
+    (f64::from(v) * 1e4).round() / 1e4
+}
