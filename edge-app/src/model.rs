@@ -27,8 +27,7 @@
 use std::path::Path;
 
 use pumptwin_core::dsstgat::{
-    probabilities_into, InferenceModel, InferenceScratch, Output, MODEL_CLASSES,
-    MODEL_INDICATORS,
+    probabilities_into, InferenceModel, InferenceScratch, Output, MODEL_CLASSES, MODEL_INDICATORS,
 };
 use pumptwin_core::features::{FeatureNorm, FEATURE_DIM};
 use pumptwin_core::graph::{build_dynamic_graphs, Adjacency, GraphConfig, NodeMask};

@@ -15,7 +15,10 @@ use serde_json::Value;
 
 /// Run frames (or errors) through a gateway; the JSON lines, parsed, and the counters.
 fn run_bus(map_text: &str, items: Vec<Result<Frame, SourceError>>) -> (Vec<Value>, Health, String) {
-    let mut gateway = Gateway::new(Pipeline::new(map(map_text)).unwrap(), Pacer::new(Speed::Max));
+    let mut gateway = Gateway::new(
+        Pipeline::new(map(map_text)).unwrap(),
+        Pacer::new(Speed::Max),
+    );
     let mut out = Vec::new();
     let mut log = Vec::new();
     let health = gateway
@@ -426,7 +429,10 @@ fn a_diagnoser_plugs_in_without_changing_the_rest() {
 fn an_unreadable_source_stops_the_run() {
     let items: Vec<Result<Frame, SourceError>> =
         vec![Err(SourceError::Io(std::io::Error::other("bus gone")))];
-    let mut gateway = Gateway::new(Pipeline::new(map(MAP_DE_FE)).unwrap(), Pacer::new(Speed::Max));
+    let mut gateway = Gateway::new(
+        Pipeline::new(map(MAP_DE_FE)).unwrap(),
+        Pacer::new(Speed::Max),
+    );
     let e = gateway
         .run(
             &mut ScriptedBus(items.into_iter()),

@@ -3,6 +3,7 @@
 //! shared with the edge and firmware); this crate orchestrates them on records.
 #![forbid(unsafe_code)]
 
+pub mod can_encode;
 pub mod cli;
 pub mod data;
 pub mod dataset;

@@ -4,6 +4,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use clap::{Args, Parser, Subcommand};
+use pumptwin_trainer::can_encode::{run_can_encode, CanEncodeArgs};
 use pumptwin_trainer::cli::{
     is_broken_pipe, run_features, run_simulate, run_twin, FeaturesArgs, SimulateArgs, TwinCmd,
 };
@@ -44,6 +45,8 @@ enum Command {
     /// Quantize a trained DS-STGAT to int8 and write the postcard model file, its
     /// golden vectors, parity figures and model card.
     Export(ExportArgs),
+    /// Turn recordings into a candump log packed as an edge sensor map says.
+    CanEncode(CanEncodeArgs),
 }
 
 /// `pumptwin data …`
@@ -101,6 +104,7 @@ fn main() -> anyhow::Result<()> {
         Command::Train(args) => run_train(args),
         Command::Eval(args) => run_eval(args),
         Command::Export(args) => run_export(args),
+        Command::CanEncode(args) => run_can_encode(args),
     };
     match result {
         Err(e) if is_broken_pipe(&e) => Ok(()),
