@@ -361,23 +361,55 @@ impl<const F: usize, const H: usize, const C: usize, const K: usize> DsStgat<F, 
     /// [`Error::ModelDimensions`] when the sizes do not fit the file's; the errors of
     /// the typed builders of [`ModelFile`].
     pub fn from_model_file(m: &ModelFile) -> Result<Self> {
+        let mut net = Self::EMPTY;
+        net.load(m)?;
+        Ok(net)
+    }
+
+    /// An all-zero network: the starting value of one that [`DsStgat::load`] fills in
+    /// place (a `static` on an MCU, in `.bss`).
+    pub const EMPTY: Self = Self {
+        embed: QLinear::EMPTY,
+        gat: GatLayer::EMPTY,
+        gru: GruCell::EMPTY,
+        pool: AttentionPool::EMPTY,
+        classifier: Classifier::EMPTY,
+        indicator: QLinear::EMPTY,
+        classes: 0,
+        indicators: 0,
+    };
+
+    /// [`DsStgat::from_model_file`] in place: every layer is written where it lives,
+    /// one at a time, so the stack needs no copy of the network (the MCU path: a few
+    /// KiB of stack, see `firmware-probe/`).
+    ///
+    /// # Errors
+    /// As [`DsStgat::from_model_file`]. On error `self` is partly overwritten and
+    /// reports 0 classes, so [`DsStgat::forward`] on it gives class 0 of nothing: do
+    /// not use it.
+    pub fn load(&mut self, m: &ModelFile) -> Result<()> {
+        self.classes = 0;
+        self.indicators = 0;
         if usize::from(m.dims.gat_hidden) != H || usize::from(m.dims.gru_hidden) != H {
             return Err(Error::ModelDimensions(
                 "the int8 DS-STGAT needs equal GAT and GRU hidden sizes H",
             ));
         }
-        let (classifier, classes) = m.linear_padded::<H, C>(LayerId::Classifier)?;
-        let (indicator, indicators) = m.linear_padded::<H, K>(LayerId::Indicator)?;
-        Ok(Self {
-            embed: m.linear::<F, H>(LayerId::Embed)?,
-            gat: m.gat_layer::<H, H>()?,
-            gru: m.gru_cell::<H, H>()?,
-            pool: m.attention_pool::<H>()?,
-            classifier: Classifier::from_linear(classifier),
-            indicator,
-            classes,
-            indicators,
-        })
+        if m.dims.layer_shape(LayerId::Embed) != (F, H) {
+            return Err(Error::ModelDimensions(
+                "embed: sizes asked for != the file's (inputs, outputs)",
+            ));
+        }
+        m.linear_into(LayerId::Embed, &mut self.embed)?;
+        m.gat_layer_into(&mut self.gat)?;
+        m.gru_cell_into(&mut self.gru)?;
+        self.pool
+            .set_in_place(|s| m.linear_into(LayerId::PoolScore, s).map(|_| ()))?;
+        let classes = m.linear_into(LayerId::Classifier, self.classifier.linear_mut())?;
+        let indicators = m.linear_into(LayerId::Indicator, &mut self.indicator)?;
+        self.classes = classes;
+        self.indicators = indicators;
+        Ok(())
     }
 
     /// Forward pass on one window of normalized features (see the module docs).

@@ -1515,6 +1515,22 @@ impl ModelFile {
         &self,
         id: LayerId,
     ) -> Result<(QLinear<IN, OUT>, usize)> {
+        let mut q = QLinear::EMPTY;
+        let outputs = self.linear_into(id, &mut q)?;
+        Ok((q, outputs))
+    }
+
+    /// [`ModelFile::linear_padded`] into a layer that already exists (e.g. inside a
+    /// `static` network): no temporary of the layer's size. Returns the file's output
+    /// count.
+    ///
+    /// # Errors
+    /// As [`ModelFile::linear_padded`]. On error `out` is partly overwritten.
+    pub fn linear_into<const IN: usize, const OUT: usize>(
+        &self,
+        id: LayerId,
+        out: &mut QLinear<IN, OUT>,
+    ) -> Result<usize> {
         const { assert!(IN > 0 && OUT > 0, "a layer needs inputs and outputs") };
         let (inputs, outputs) = self.dims.layer_shape(id);
         if inputs != IN || outputs > OUT || outputs == 0 {
@@ -1526,27 +1542,18 @@ impl ModelFile {
         let l = self.layer(id);
         check_layer_shape(&self.dims, id, l)?;
         let bad_scale = layer_msg!(id, "a scale is not finite and > 0");
-        let mut weights = [[0i8; IN]; OUT];
-        for (row, src) in weights.iter_mut().zip(l.weights.chunks_exact(IN)) {
-            row.copy_from_slice(src);
-        }
-        let first = scale(l.weight_scales.first().copied().unwrap_or(0.0), bad_scale)?;
-        let mut weight_scales = [first; OUT];
+        let mut weight_scales = [QScale::UNIT; OUT];
         for (s, &v) in weight_scales.iter_mut().zip(l.weight_scales) {
             *s = scale(v, bad_scale)?;
         }
-        let mut bias = [0i32; OUT];
-        for (b, &v) in bias.iter_mut().zip(l.bias) {
-            *b = v;
-        }
-        QLinear::from_parts(
-            weights,
-            weight_scales,
-            bias,
+        out.set_parts(
+            l.weights,
+            &weight_scales[..outputs],
+            l.bias,
             scale(l.input_scale, bad_scale)?,
             scale(l.output_scale, bad_scale)?,
-        )
-        .map(|q| (q, outputs))
+        )?;
+        Ok(outputs)
     }
 
     /// The GAT layer with `F` features and `H` hidden units.
@@ -1588,6 +1595,65 @@ impl ModelFile {
             bias,
             scales,
         )
+    }
+
+    /// [`ModelFile::gat_layer`] into an existing layer (no temporary of its size).
+    ///
+    /// # Errors
+    /// As [`ModelFile::gat_layer`]. On error `out` is partly overwritten.
+    pub fn gat_layer_into<const F: usize, const H: usize>(
+        &self,
+        out: &mut GatLayer<F, H>,
+    ) -> Result<()> {
+        if self.dims.layer_shape(LayerId::GatProject) != (F, H) {
+            return Err(Error::ModelDimensions(
+                "gat.project: sizes asked for != the file's (inputs, outputs)",
+            ));
+        }
+        let g = &self.gat;
+        let bad = "gat: an attention or activation scale is not finite and > 0";
+        let dims = |e: Error, what| match e {
+            Error::BufferSize { .. } => Error::ModelDimensions(what),
+            other => other,
+        };
+        out.set_in_place(
+            |p| self.linear_into(LayerId::GatProject, p).map(|_| ()),
+            (&g.a_src, scale(g.a_src_scale, bad)?),
+            (&g.a_dst, scale(g.a_dst_scale, bad)?),
+            &g.bias,
+            scale(g.logit_scale, bad)?,
+            scale(g.output_scale, bad)?,
+        )
+        .map_err(|e| dims(e, "gat: a_src, a_dst or bias length != GAT hidden size"))
+    }
+
+    /// [`ModelFile::gru_cell`] into an existing cell (no temporary of its size).
+    ///
+    /// # Errors
+    /// As [`ModelFile::gru_cell`]. On error `out` is partly overwritten.
+    pub fn gru_cell_into<const IN: usize, const H: usize>(
+        &self,
+        out: &mut GruCell<IN, H>,
+    ) -> Result<()> {
+        const GATES: [(LayerId, LayerId); 3] = [
+            (LayerId::GruWz, LayerId::GruUz),
+            (LayerId::GruWr, LayerId::GruUr),
+            (LayerId::GruWn, LayerId::GruUn),
+        ];
+        out.set_in_place(|g, w, u| {
+            let (wid, uid) = GATES[g.min(2)];
+            for (id, shape) in [(wid, (IN, H)), (uid, (H, H))] {
+                if self.dims.layer_shape(id) != shape {
+                    return Err(Error::ModelDimensions(layer_msg!(
+                        id,
+                        "sizes asked for != the file's (inputs, outputs)"
+                    )));
+                }
+            }
+            self.linear_into(wid, w)?;
+            self.linear_into(uid, u)?;
+            Ok(())
+        })
     }
 
     /// The GRU cell with `IN` inputs (the GAT hidden size) and `H` hidden units.
@@ -1856,6 +1922,17 @@ mod tests {
         // The typed kernels rebuilt from the file equal the ones exported.
         assert_eq!(d.linear::<F, HG>(LayerId::Embed).unwrap(), k.embed);
         assert_eq!(d.gat_layer::<HG, HG>().unwrap(), k.gat);
+        // The in-place builders give the same kernels.
+        let mut g = GatLayer::<HG, HG>::EMPTY;
+        d.gat_layer_into(&mut g).unwrap();
+        assert_eq!(g, k.gat);
+        let mut c = GruCell::<HG, HR>::EMPTY;
+        d.gru_cell_into(&mut c).unwrap();
+        assert_eq!(c, k.gru);
+        assert!(matches!(
+            d.gru_cell_into(&mut GruCell::<HG, 4>::EMPTY),
+            Err(Error::ModelDimensions(_))
+        ));
         assert_eq!(d.linear::<HR, K>(LayerId::Indicator).unwrap(), k.indicator);
         assert_eq!(d.gru_cell::<HG, HR>().unwrap(), k.gru);
         assert_eq!(d.attention_pool::<HR>().unwrap(), k.pool);

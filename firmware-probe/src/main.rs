@@ -41,9 +41,10 @@ static MODEL_BYTES: &[u8] = include_bytes!("../../models/dsstgat-cwru-tb.ptm");
 /// floats and `heapless` `Vec`/`String`s (a length and a `MaybeUninit` buffer), so a
 /// zeroed value is a model with empty buffers, which `decode_into` then overwrites.
 static mut MODEL: MaybeUninit<ModelFile> = MaybeUninit::zeroed();
-/// The int8 network, written once by `from_model_file`.
+/// The int8 network, filled in place once by `DsStgat::load` (starts as the const
+/// `DsStgat::EMPTY`, so it is `.data`: its placeholder scales are not zero).
 #[cfg(not(feature = "net-on-stack"))]
-static mut NET: MaybeUninit<Net> = MaybeUninit::uninit();
+static mut NET: Net = Net::EMPTY;
 /// Inference scratch (`const fn new`, zeroed).
 static mut SCRATCH: NetScratch = Scratch::new();
 
@@ -138,11 +139,9 @@ fn phase_decode(model: &mut ModelFile) -> pumptwin_core::Result<()> {
 
 #[cfg(not(feature = "net-on-stack"))]
 #[inline(never)]
-fn phase_build<'a>(
-    model: &ModelFile,
-    place: &'a mut MaybeUninit<Net>,
-) -> pumptwin_core::Result<&'a Net> {
-    Ok(place.write(Net::from_model_file(model)?))
+fn phase_build<'a>(model: &ModelFile, place: &'a mut Net) -> pumptwin_core::Result<&'a Net> {
+    place.load(model)?;
+    Ok(place)
 }
 
 #[cfg(not(feature = "net-on-stack"))]
@@ -289,7 +288,7 @@ fn main() -> ! {
         };
         say!(
             c,
-            "stack peak (b) from_model_file:  {:6} B (network in a static)",
+            "stack peak (b) DsStgat::load:    {:6} B (network in a static, built in place)",
             s_build
         );
 

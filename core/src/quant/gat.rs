@@ -367,6 +367,91 @@ fn ratio(num: f64, den: f64) -> Result<QMultiplier> {
 }
 
 impl<const F: usize, const H: usize> GatLayer<F, H> {
+    /// A placeholder layer (all zero) to fill in place with [`GatLayer::set_in_place`].
+    pub const EMPTY: Self = Self {
+        project: QLinear::EMPTY,
+        a_src: [0; H],
+        a_src_scale: QScale::UNIT,
+        a_dst: [0; H],
+        a_dst_scale: QScale::UNIT,
+        bias: [0; H],
+        scales: GatScales {
+            input: QScale::UNIT,
+            projected: QScale::UNIT,
+            logit: QScale::UNIT,
+            output: QScale::UNIT,
+        },
+        dst_to_src: QMultiplier::INV_127,
+        to_logit: QMultiplier::INV_127,
+        to_output: QMultiplier::INV_127,
+        leaky: LeakyRelu::GAT,
+        exp: ExpLut::EMPTY,
+    };
+
+    /// [`GatLayer::from_parts`] in place: `load_project` fills `W` where it lives,
+    /// the attention vectors and bias are copied from slices of length `H`, and the
+    /// layer checks everything and derives its multipliers and table.
+    ///
+    /// # Errors
+    /// The loader's errors; [`Error::BufferSize`] for vectors not of length `H`; those
+    /// of [`GatLayer::from_parts`]. On error `self` is partly overwritten.
+    pub fn set_in_place(
+        &mut self,
+        load_project: impl FnOnce(&mut QLinear<F, H>) -> Result<()>,
+        a_src: (&[i8], QScale),
+        a_dst: (&[i8], QScale),
+        bias: &[i32],
+        logit: QScale,
+        output: QScale,
+    ) -> Result<()> {
+        load_project(&mut self.project)?;
+        let copy = |dst: &mut [i8; H], src: &[i8]| -> Result<()> {
+            *dst = src.try_into().map_err(|_| Error::BufferSize {
+                expected: H,
+                got: src.len(),
+            })?;
+            Ok(())
+        };
+        copy(&mut self.a_src, a_src.0)?;
+        copy(&mut self.a_dst, a_dst.0)?;
+        self.bias = bias.try_into().map_err(|_| Error::BufferSize {
+            expected: H,
+            got: bias.len(),
+        })?;
+        self.a_src_scale = a_src.1;
+        self.a_dst_scale = a_dst.1;
+        self.scales = GatScales {
+            input: self.project.input_scale(),
+            projected: self.project.output_scale(),
+            logit,
+            output,
+        };
+        self.derive()
+    }
+
+    /// Check the parts and derive the multipliers and the exp table.
+    fn derive(&mut self) -> Result<()> {
+        let scales = self.scales;
+        let project = &self.project;
+        if project.input_scale() != scales.input || project.output_scale() != scales.projected {
+            return Err(Error::InvalidParameter(
+                "GAT projection scales do not match",
+            ));
+        }
+        if project.bias().iter().any(|&b| b != 0) {
+            return Err(Error::InvalidParameter("GAT projection must have no bias"));
+        }
+        let s_z = f64::from(scales.projected.get());
+        let s_as = f64::from(self.a_src_scale.get());
+        let s_ad = f64::from(self.a_dst_scale.get());
+        self.dst_to_src = ratio(s_ad, s_as)?;
+        self.to_logit = ratio(s_z * s_as, f64::from(scales.logit.get()))?;
+        self.to_output = ratio(s_z * Q15, f64::from(scales.output.get()))?;
+        self.leaky = LeakyRelu::GAT;
+        self.exp = ExpLut::new(scales.logit);
+        Ok(())
+    }
+
     /// Assemble from stored parts. `project` (`W`) must map `scales.input →
     /// scales.projected` and have zero bias (the layer's bias `bias` comes after the
     /// aggregation, at `s_z·2^−15`).
@@ -381,23 +466,7 @@ impl<const F: usize, const H: usize> GatLayer<F, H> {
         bias: [i32; H],
         scales: GatScales,
     ) -> Result<Self> {
-        if project.input_scale() != scales.input || project.output_scale() != scales.projected {
-            return Err(Error::InvalidParameter(
-                "GAT projection scales do not match",
-            ));
-        }
-        if project.bias().iter().any(|&b| b != 0) {
-            return Err(Error::InvalidParameter("GAT projection must have no bias"));
-        }
-        let s_z = f64::from(scales.projected.get());
-        let s_as = f64::from(a_src.1.get());
-        let s_ad = f64::from(a_dst.1.get());
-        Ok(Self {
-            dst_to_src: ratio(s_ad, s_as)?,
-            to_logit: ratio(s_z * s_as, f64::from(scales.logit.get()))?,
-            to_output: ratio(s_z * Q15, f64::from(scales.output.get()))?,
-            leaky: LeakyRelu::GAT,
-            exp: ExpLut::new(scales.logit),
+        let mut layer = Self {
             project,
             a_src: a_src.0,
             a_src_scale: a_src.1,
@@ -405,7 +474,10 @@ impl<const F: usize, const H: usize> GatLayer<F, H> {
             a_dst_scale: a_dst.1,
             bias,
             scales,
-        })
+            ..Self::EMPTY
+        };
+        layer.derive()?;
+        Ok(layer)
     }
 
     /// Quantize a float layer with calibrated activation scales.

@@ -139,7 +139,25 @@ struct Gate<const IN: usize, const H: usize> {
 }
 
 impl<const IN: usize, const H: usize> Gate<IN, H> {
+    const EMPTY: Self = Self {
+        w: QLinear::EMPTY,
+        u: QLinear::EMPTY,
+        u_to_w: [QMultiplier::INV_127; H],
+    };
+
     fn new(w: QLinear<IN, H>, u: QLinear<H, H>, table_scale: QScale) -> Result<Self> {
+        let mut g = Self {
+            w,
+            u,
+            u_to_w: [QMultiplier::INV_127; H],
+        };
+        g.derive(table_scale)?;
+        Ok(g)
+    }
+
+    /// Check the matrices and derive `u_to_w` in place.
+    fn derive(&mut self, table_scale: QScale) -> Result<()> {
+        let (w, u) = (&self.w, &self.u);
         if w.output_scale() != table_scale || u.output_scale() != table_scale {
             return Err(Error::InvalidParameter(
                 "GRU gate output scale must be the gate table's input scale",
@@ -150,15 +168,14 @@ impl<const IN: usize, const H: usize> Gate<IN, H> {
                 "GRU U matrices take h at 1/127 and have no bias",
             ));
         }
-        let mut u_to_w = [QMultiplier::INV_127; H];
         for o in 0..H {
             let num = f64::from(u.input_scale().get()) * f64::from(u.weight_scales()[o].get());
             let den = f64::from(w.input_scale().get()) * f64::from(w.weight_scales()[o].get());
-            u_to_w[o] = QMultiplier::from_f64(num / den).ok_or(Error::InvalidParameter(
+            self.u_to_w[o] = QMultiplier::from_f64(num / den).ok_or(Error::InvalidParameter(
                 "GRU U/W scale ratio outside [2^-32, 2^31)",
             ))?;
         }
-        Ok(Self { w, u, u_to_w })
+        Ok(())
     }
 
     /// `out[o] = lut(requant(W·x + b + M(U·h)))`.
@@ -194,6 +211,43 @@ pub struct GruCell<const IN: usize, const H: usize> {
 impl<const IN: usize, const H: usize> GruCell<IN, H> {
     /// The hidden state's fixed scale, 1/127.
     pub const HIDDEN_SCALE: QScale = QScale::UNIT;
+
+    /// A placeholder cell (all zero) to fill in place with [`GruCell::set_in_place`].
+    pub const EMPTY: Self = Self {
+        z: Gate::EMPTY,
+        r: Gate::EMPTY,
+        n: Gate::EMPTY,
+        sigmoid: Lut8::EMPTY,
+        tanh: Lut8::EMPTY,
+    };
+
+    /// [`GruCell::from_parts`] in place: `load(g, W_g, U_g)` fills the matrices of
+    /// gate `g` (0 = z, 1 = r, 2 = n) where they live, then the cell checks them and
+    /// derives its multipliers and tables. No temporary of the cell's size.
+    ///
+    /// # Errors
+    /// The loader's errors; those of [`GruCell::from_parts`]. On error `self` is
+    /// partly overwritten.
+    pub fn set_in_place(
+        &mut self,
+        mut load: impl FnMut(usize, &mut QLinear<IN, H>, &mut QLinear<H, H>) -> Result<()>,
+    ) -> Result<()> {
+        load(0, &mut self.z.w, &mut self.z.u)?;
+        load(1, &mut self.r.w, &mut self.r.u)?;
+        load(2, &mut self.n.w, &mut self.n.u)?;
+        let s = self.z.w.input_scale();
+        if s != self.r.w.input_scale() || s != self.n.w.input_scale() {
+            return Err(Error::InvalidParameter(
+                "GRU gates must share the input scale",
+            ));
+        }
+        self.z.derive(SIGMOID_GATE_INPUT_SCALE)?;
+        self.r.derive(SIGMOID_GATE_INPUT_SCALE)?;
+        self.n.derive(TANH_GATE_INPUT_SCALE)?;
+        self.sigmoid = Lut8::gate_sigmoid();
+        self.tanh = Lut8::gate_tanh();
+        Ok(())
+    }
 
     /// Assemble from stored gate matrices `(W_g, U_g)` in the order z, r, n. Each `W_g`
     /// maps the input scale to the gate table's input scale (6/127 for z and r, 3/127

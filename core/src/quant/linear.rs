@@ -79,6 +79,65 @@ pub struct QLinear<const IN: usize, const OUT: usize> {
 }
 
 impl<const IN: usize, const OUT: usize> QLinear<IN, OUT> {
+    /// An all-zero layer (every scale 1/127): the starting value of a layer that is
+    /// filled in place with [`QLinear::set_parts`] (e.g. in a `static`).
+    pub const EMPTY: Self = Self {
+        weights: [[0; IN]; OUT],
+        weight_scales: [QScale::UNIT; OUT],
+        bias: [0; OUT],
+        input_scale: QScale::UNIT,
+        output_scale: QScale::UNIT,
+        requant: [QMultiplier::INV_127; OUT],
+    };
+
+    /// [`QLinear::from_parts`] in place, from slices: the first `rows` output channels
+    /// get `weights` (`rows·IN` codes, row-major), `weight_scales` and `bias` (`rows`
+    /// each, `1 ≤ rows ≤ OUT`); the rest are zero padding (zero weights and bias, the
+    /// first row's scale). Needs no temporary of the layer's size, so a decoder on an
+    /// MCU can fill a layer that lives in a `static`.
+    ///
+    /// # Errors
+    /// [`Error::BufferSize`] for slice lengths that do not fit; the errors of
+    /// [`QLinear::from_parts`]. On error `self` is partly overwritten.
+    pub fn set_parts(
+        &mut self,
+        weights: &[i8],
+        weight_scales: &[QScale],
+        bias: &[i32],
+        input_scale: QScale,
+        output_scale: QScale,
+    ) -> Result<()> {
+        let rows = weight_scales.len();
+        if rows == 0 || rows > OUT || bias.len() != rows || weights.len() != rows * IN {
+            return Err(Error::BufferSize {
+                expected: rows.clamp(1, OUT) * IN,
+                got: weights.len(),
+            });
+        }
+        if bias.iter().any(|b| b.unsigned_abs() > MAX_BIAS as u32) {
+            return Err(Error::InvalidParameter("int32 bias exceeds 2^30 - 1"));
+        }
+        self.input_scale = input_scale;
+        self.output_scale = output_scale;
+        for o in 0..OUT {
+            let (sw, b) = if o < rows {
+                (weight_scales[o], bias[o])
+            } else {
+                (weight_scales[0], 0)
+            };
+            match weights.get(o * IN..(o + 1) * IN) {
+                Some(src) if o < rows => self.weights[o].copy_from_slice(src),
+                _ => self.weights[o] = [0; IN],
+            }
+            self.weight_scales[o] = sw;
+            self.bias[o] = b;
+            self.requant[o] = QMultiplier::from_scales(input_scale, sw, output_scale).ok_or(
+                Error::InvalidParameter("requantization ratio outside [2^-32, 2^31)"),
+            )?;
+        }
+        Ok(())
+    }
+
     /// Assemble from stored parts; derives the multipliers `s_x·s_w[o]/s_y`.
     ///
     /// # Errors

@@ -99,6 +99,13 @@ impl Lut8 {
     /// Stated max error vs the f64 function at the dequantized input, in output LSBs.
     pub const MAX_ERROR_LSB: f64 = 0.5;
 
+    /// An all-zero table (scales 1/127): a placeholder until the real table is set.
+    pub const EMPTY: Self = Self {
+        table: [0; 256],
+        input_scale: QScale::UNIT,
+        output_scale: QScale::UNIT,
+    };
+
     /// Tabulate `f` for input codes at `input_scale`, outputs at `output_scale`.
     ///
     /// # Errors
@@ -197,6 +204,12 @@ impl ExpLut {
     pub const FRAC_BITS: u32 = 15;
     /// Stated max error vs `exp(−s_in·d)`, in Q0.15 LSBs.
     pub const MAX_ERROR_LSB: f64 = 0.5;
+
+    /// An all-zero table (scale 1/127): a placeholder until the real table is set.
+    pub const EMPTY: Self = Self {
+        table: [0; 256],
+        input_scale: QScale::UNIT,
+    };
 
     /// Tabulate for logits at `input_scale`.
     pub fn new(input_scale: QScale) -> Self {

@@ -143,6 +143,25 @@ pub struct AttentionPool<const H: usize> {
 }
 
 impl<const H: usize> AttentionPool<H> {
+    /// A placeholder to fill in place with [`AttentionPool::set_in_place`].
+    pub const EMPTY: Self = Self {
+        score: QLinear::EMPTY,
+        exp: ExpLut::EMPTY,
+    };
+
+    /// [`AttentionPool::from_parts`] in place: `load` fills the score layer.
+    ///
+    /// # Errors
+    /// The loader's errors.
+    pub fn set_in_place(
+        &mut self,
+        load: impl FnOnce(&mut QLinear<H, 1>) -> Result<()>,
+    ) -> Result<()> {
+        load(&mut self.score)?;
+        self.exp = ExpLut::new(self.score.output_scale());
+        Ok(())
+    }
+
     /// From a stored score layer (`s_h → s_s`); the exp table is derived from `s_s`.
     pub fn from_parts(score: QLinear<H, 1>) -> Self {
         let exp = ExpLut::new(score.output_scale());
@@ -237,6 +256,16 @@ pub struct Classifier<const H: usize, const C: usize> {
 }
 
 impl<const H: usize, const C: usize> Classifier<H, C> {
+    /// A placeholder to fill in place through [`Classifier::linear_mut`].
+    pub const EMPTY: Self = Self {
+        linear: QLinear::EMPTY,
+    };
+
+    /// The underlying layer, to fill in place.
+    pub fn linear_mut(&mut self) -> &mut QLinear<H, C> {
+        &mut self.linear
+    }
+
     /// From a stored layer (`s_g → s_l`).
     pub fn from_linear(linear: QLinear<H, C>) -> Self {
         Self { linear }
