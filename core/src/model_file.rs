@@ -1929,8 +1929,9 @@ mod tests {
         let mut c = GruCell::<HG, HR>::EMPTY;
         d.gru_cell_into(&mut c).unwrap();
         assert_eq!(c, k.gru);
+        let mut small = GruCell::<HG, 4>::EMPTY;
         assert!(matches!(
-            d.gru_cell_into(&mut GruCell::<HG, 4>::EMPTY),
+            d.gru_cell_into(&mut small),
             Err(Error::ModelDimensions(_))
         ));
         assert_eq!(d.linear::<HR, K>(LayerId::Indicator).unwrap(), k.indicator);
