@@ -79,22 +79,25 @@
 //!
 //! `F` must equal [`FEATURE_DIM`] (the normalization has that many entries).
 //!
-//! `size_of::<ModelFile>()` is 32 336 bytes on `thumbv7em-none-eabihf` (32 584 on a
+//! `size_of::<ModelFile>()` is 12 616 bytes on `thumbv7em-none-eabihf` (12 928 on a
 //! 64-bit host), asserted at compile time to stay within [`DECODED_SIZE_BUDGET`]
-//! (32 KiB); six full 64×64 GRU matrices are 24 KiB of it. A file is at most
+//! (16 KiB); six full 32×32 GRU matrices are 6 KiB of it. A file is at most
 //! [`MAX_ENCODED_LEN`] bytes. On an MCU decode with [`decode_into`] into storage
-//! the firmware owns (a `static`): it fills the buffers in place and needs about
-//! 1 KiB of stack (measured, x86-64 release, a model with 64×64 GRU matrices).
-//! [`decode`] returns the model by value and needs about three times its size of
-//! stack (the default value, the returned value and the caller's copy) — fine on a
-//! host. A derived `Deserialize` would have built every nested struct as a local
-//! and moved it up (~228 KiB of stack for the same model), hence the hand-written
-//! in-place decoding below.
+//! the firmware owns (a `static`): it fills the buffers in place and needs 1.4 KiB
+//! of stack (measured on a Cortex-M4F, `firmware-probe/`). [`decode`] returns the
+//! model by value and needs about three times its size of stack (the default value,
+//! the returned value and the caller's copy) — fine on a host. A derived
+//! `Deserialize` would have built every nested struct as a local and moved it up,
+//! hence the hand-written in-place decoding below.
 //!
-//! The typed builders return the kernels by value, as the [`crate::quant`]
-//! constructors take their parts by value: `gru_cell::<64, 64>()` used ~180 KiB of
-//! stack in the same measurement (~33 KiB of kernel, moved several times). Fine on
-//! the gateway; an MCU needs the later const-generic typed view built in place.
+//! The typed builders come in two forms. [`ModelFile::linear`],
+//! [`ModelFile::gat_layer`], [`ModelFile::gru_cell`] return the kernels by value
+//! (convenient on a host; the by-value build of the whole H = 32 network took
+//! 105 KB of stack on the Cortex-M4F, every kernel moved several times).
+//! [`ModelFile::linear_into`], [`ModelFile::gat_layer_into`],
+//! [`ModelFile::gru_cell_into`] fill kernels where they live, and
+//! [`crate::dsstgat::DsStgat::load`] builds the whole network that way: 1.6 KiB of
+//! stack on the same MCU, so decoded model, network and scratch fit 32 KiB of RAM.
 //!
 //! # Writing
 //!
