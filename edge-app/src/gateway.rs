@@ -3,9 +3,16 @@
 use crate::candump::{FrameSource, SourceError};
 use crate::diagnosis::{DiagnoseError, Diagnoser};
 use crate::pace::Pacer;
-use crate::pipeline::{Health, Pipeline};
+use crate::pipeline::{Health, Pipeline, Window};
 use crate::report::window_json;
 use std::io::Write;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+/// Called after each window's line is written, with the window and its diagnosis
+/// (e.g. the `--publish-id` bus frame).
+pub type Publisher<'d> =
+    Box<dyn FnMut(&Window, Option<&serde_json::Value>) -> std::io::Result<()> + 'd>;
 
 /// Bad log lines reported individually before the rest are only counted.
 pub const BAD_LINES_SHOWN: u64 = 10;
@@ -33,6 +40,10 @@ pub struct Gateway<'d> {
     pipeline: Pipeline,
     pacer: Pacer,
     diagnoser: Option<Box<dyn Diagnoser + 'd>>,
+    publisher: Option<Publisher<'d>>,
+    stop: Option<Arc<AtomicBool>>,
+    /// Publisher calls that failed (logged on stderr, the run goes on).
+    pub publish_failures: u64,
 }
 
 impl std::fmt::Debug for Gateway<'_> {
@@ -55,12 +66,28 @@ impl<'d> Gateway<'d> {
             pipeline,
             pacer,
             diagnoser: None,
+            publisher: None,
+            stop: None,
+            publish_failures: 0,
         }
     }
 
     /// Add a diagnoser: its output goes into each window's `"diagnosis"`.
     pub fn with_diagnoser(mut self, diagnoser: Box<dyn Diagnoser + 'd>) -> Self {
         self.diagnoser = Some(diagnoser);
+        self
+    }
+
+    /// Add a publisher, called after each window's line.
+    pub fn with_publisher(mut self, publisher: Publisher<'d>) -> Self {
+        self.publisher = Some(publisher);
+        self
+    }
+
+    /// Stop between frames once `stop` is set (SIGINT/SIGTERM): what was written is
+    /// flushed, the run returns normally.
+    pub fn with_stop(mut self, stop: Arc<AtomicBool>) -> Self {
+        self.stop = Some(stop);
         self
     }
 
@@ -84,6 +111,13 @@ impl<'d> Gateway<'d> {
         L: Write + ?Sized,
     {
         while let Some(item) = source.next_frame() {
+            if self
+                .stop
+                .as_ref()
+                .is_some_and(|s| s.load(Ordering::Relaxed))
+            {
+                break;
+            }
             let frame = match item {
                 Ok(frame) => frame,
                 Err(e) if e.is_recoverable() => {
@@ -109,6 +143,18 @@ impl<'d> Gateway<'d> {
                 out.write_all(line.as_bytes())?;
                 out.write_all(b"\n")?;
                 out.flush()?;
+                if let Some(p) = self.publisher.as_mut() {
+                    if let Err(e) = p(&window, diagnosis.as_ref()) {
+                        self.publish_failures += 1;
+                        if self.publish_failures <= BAD_LINES_SHOWN {
+                            writeln!(
+                                log,
+                                "pumptwin-edge: publishing window {}: {e}",
+                                window.index
+                            )?;
+                        }
+                    }
+                }
             }
         }
         Ok(self.pipeline.health())

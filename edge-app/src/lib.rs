@@ -15,6 +15,7 @@
 //! | [`report`] | the JSON line of a window |
 //! | [`diagnosis`] | the extension point for diagnosers |
 //! | [`model`] | the int8 DS-STGAT from a model file (`--model`) as a diagnoser |
+//! | [`live`] | live SocketCAN source (`--can IFACE`, reconnecting) and the `--publish-id` bus writer |
 //! | [`pace`] | replay at full speed or following the log's timestamps |
 //! | [`gateway`] | the run loop |
 //!
@@ -28,6 +29,7 @@ pub mod candump;
 pub mod diagnosis;
 pub mod explain;
 pub mod gateway;
+pub mod live;
 pub mod model;
 pub mod pace;
 pub mod pipeline;

@@ -5,11 +5,15 @@
 //! physics explanation per window, and writes one JSON object per window.
 //!
 //! ```text
-//! pumptwin-edge --replay FILE.log --sensors MAP.toml [--model MODEL.ptm] [--out FILE.jsonl]
-//!               [--speed max|realtime]
+//! pumptwin-edge (--replay FILE.log | --can IFACE) --sensors MAP.toml [--model MODEL.ptm]
+//!               [--out FILE.jsonl] [--speed max|realtime] [--publish-id ID] [--idle-exit S]
 //!
-//!   --replay FILE.log   candump -l log to replay; `-` reads standard input, e.g. live:
-//!                       candump -L can0 | pumptwin-edge --replay - --sensors map.toml
+//!   --replay FILE.log   candump -l log to replay; `-` reads standard input
+//!   --can IFACE         read live from a SocketCAN interface (classic and FD frames);
+//!                       reopens it with backoff when it goes down
+//!   --publish-id ID     (with --can) send a compact 8-byte diagnosis frame with this
+//!                       id after every window (layout: `model::DiagnosisFrameEncoder`)
+//!   --idle-exit S       (with --can) end after S seconds without a frame
 //!   --sensors MAP.toml  sensor map (machine speed, bearing, fs; channel ids and layouts)
 //!   --model MODEL.ptm   int8 model file: adds the model's diagnosis to every window
 //!   --out FILE.jsonl    append the JSON lines here instead of standard output
@@ -48,18 +52,24 @@
 //! under `"missing"`; no value is made up for it. Bad log lines are skipped and counted
 //! (the first few are described on standard error), an unreadable log stops the run
 //! with exit status 1, and a health summary goes to standard error at the end.
+//! SIGINT or SIGTERM ends the run between frames: every line written is flushed and
+//! the exit status is 0.
 
 use anyhow::Context;
 use clap::{Parser, ValueEnum};
-use pumptwin_edge::candump::CandumpReplay;
+use pumptwin_edge::candump::{CandumpReplay, FrameSource};
 use pumptwin_edge::gateway::Gateway;
-use pumptwin_edge::model::ModelDiagnoser;
+use pumptwin_edge::live::{BusPublisher, SocketCanSource};
+use pumptwin_edge::model::{DiagnosisFrameEncoder, ModelDiagnoser};
 use pumptwin_edge::pace::{Pacer, Speed};
 use pumptwin_edge::pipeline::Pipeline;
 use pumptwin_edge::sensor_map::SensorMap;
 use std::fs::{File, OpenOptions};
 use std::io::{self, BufRead, BufReader, BufWriter, Write};
 use std::path::PathBuf;
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
+use std::time::Duration;
 
 /// Replay speed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -70,14 +80,23 @@ enum SpeedArg {
     Realtime,
 }
 
-/// pumptwin edge gateway: candump replay → windows → features, physics explanation
-/// and health, one JSON object per window.
+/// pumptwin edge gateway: CAN frames (candump replay or live SocketCAN) → windows →
+/// features, physics explanation, the model's diagnosis and health, one JSON object
+/// per window.
 #[derive(Debug, Parser)]
 #[command(name = "pumptwin-edge", version, about)]
 struct Cli {
     /// candump -l log to replay (`-` for standard input).
-    #[arg(long, value_name = "FILE.log")]
-    replay: PathBuf,
+    #[arg(
+        long,
+        value_name = "FILE.log",
+        required_unless_present = "can",
+        conflicts_with = "can"
+    )]
+    replay: Option<PathBuf>,
+    /// Live SocketCAN interface (e.g. can0, vcan0).
+    #[arg(long, value_name = "IFACE")]
+    can: Option<String>,
     /// Sensor map (TOML).
     #[arg(long, value_name = "MAP.toml")]
     sensors: PathBuf,
@@ -90,18 +109,34 @@ struct Cli {
     /// Int8 model file (`pumptwin export`): adds a `"diagnosis"` to every window.
     #[arg(long, value_name = "MODEL.ptm")]
     model: Option<PathBuf>,
+    /// Send a compact diagnosis frame with this CAN id after every window (with --can).
+    #[arg(long, value_name = "ID", value_parser = parse_id, requires = "can")]
+    publish_id: Option<u32>,
+    /// End a live run after this many seconds without a frame (with --can).
+    #[arg(long, value_name = "S", requires = "can")]
+    idle_exit: Option<f64>,
+}
+
+fn parse_id(s: &str) -> Result<u32, String> {
+    let v = match s.strip_prefix("0x").or_else(|| s.strip_prefix("0X")) {
+        Some(hex) => u32::from_str_radix(hex, 16),
+        None => s.parse(),
+    }
+    .map_err(|e| format!("{s:?} is not a CAN id: {e}"))?;
+    if v > 0x1FFF_FFFF {
+        return Err(format!("{s}: CAN ids have at most 29 bits"));
+    }
+    Ok(v)
 }
 
 fn main() -> anyhow::Result<()> {
     let cli = Cli::parse();
+    let stop = Arc::new(AtomicBool::new(false));
+    for sig in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        signal_hook::flag::register(sig, Arc::clone(&stop))
+            .context("installing signal handlers")?;
+    }
     let map = SensorMap::load(&cli.sensors)?;
-    let input: Box<dyn BufRead> = if cli.replay.as_os_str() == "-" {
-        Box::new(io::stdin().lock())
-    } else {
-        let file = File::open(&cli.replay)
-            .with_context(|| format!("opening candump log {}", cli.replay.display()))?;
-        Box::new(BufReader::new(file))
-    };
     let mut out: Box<dyn Write> = match &cli.out {
         Some(path) => Box::new(BufWriter::new(
             OpenOptions::new()
@@ -117,7 +152,8 @@ fn main() -> anyhow::Result<()> {
         SpeedArg::Realtime => Speed::Realtime,
     };
     let pipeline = Pipeline::new(map).context("building the signal path")?;
-    let mut gateway = Gateway::new(pipeline, Pacer::new(speed));
+    let mut gateway = Gateway::new(pipeline, Pacer::new(speed)).with_stop(Arc::clone(&stop));
+    let mut encoder = DiagnosisFrameEncoder::new(Vec::new(), Vec::new());
     if let Some(path) = &cli.model {
         let diagnoser = ModelDiagnoser::load(path, gateway.pipeline().channel_names())?;
         let unmapped: Vec<&str> = diagnoser.unmapped().collect();
@@ -126,13 +162,47 @@ fn main() -> anyhow::Result<()> {
                 "pumptwin-edge: model sensors {unmapped:?} are not in the sensor map: masked"
             );
         }
+        encoder = DiagnosisFrameEncoder::for_model(&diagnoser);
         gateway = gateway.with_diagnoser(Box::new(diagnoser));
     }
-    let mut source = CandumpReplay::new(input);
-    let result = gateway.run(&mut source, &mut out, &mut io::stderr());
+    let (mut source, what): (Box<dyn FrameSource>, String) = match (&cli.replay, &cli.can) {
+        (Some(path), _) => {
+            let input: Box<dyn BufRead> = if path.as_os_str() == "-" {
+                Box::new(io::stdin().lock())
+            } else {
+                let file = File::open(path)
+                    .with_context(|| format!("opening candump log {}", path.display()))?;
+                Box::new(BufReader::new(file))
+            };
+            (
+                Box::new(CandumpReplay::new(input)),
+                format!("replaying {}", path.display()),
+            )
+        }
+        (None, Some(iface)) => {
+            if let Some(id) = cli.publish_id {
+                let bus = BusPublisher::open(iface, id)
+                    .with_context(|| format!("opening {iface} to publish diagnoses"))?;
+                gateway =
+                    gateway.with_publisher(Box::new(move |w, d| bus.send(&encoder.encode(w, d))));
+            }
+            let idle = cli.idle_exit.map(Duration::from_secs_f64);
+            (
+                Box::new(SocketCanSource::new(iface, Arc::clone(&stop), idle)),
+                format!("reading {iface}"),
+            )
+        }
+        (None, None) => anyhow::bail!("give --replay FILE or --can IFACE"),
+    };
+    let result = gateway.run(&mut *source, &mut out, &mut io::stderr());
+    out.flush().context("flushing the output")?;
     let health = gateway.pipeline().health();
     eprintln!("pumptwin-edge: {health}");
-    result
-        .map(|_| ())
-        .with_context(|| format!("replaying {}", cli.replay.display()))
+    if gateway.publish_failures > 0 {
+        eprintln!(
+            "pumptwin-edge: {} diagnosis frames could not be sent",
+            gateway.publish_failures
+        );
+    }
+    result.map(|_| ()).with_context(|| what)
 }

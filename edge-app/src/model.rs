@@ -35,6 +35,7 @@ use pumptwin_core::model_file::{self, ModelFile};
 use serde_json::{json, Map, Value};
 
 use crate::diagnosis::{DiagnoseError, Diagnoser};
+use crate::explain::KinematicLine;
 use crate::pipeline::{ChannelOutcome, Window, SEGMENTS};
 
 /// Sensor nodes of the models this gateway runs.
@@ -245,4 +246,82 @@ impl Diagnoser for ModelDiagnoser {
 
 fn round4(v: f32) -> f64 {
     (f64::from(v) * 1e4).round() / 1e4
+}
+
+/// The compact diagnosis frame of `--publish-id` (classic CAN, 8 bytes):
+///
+/// | byte | field |
+/// |---|---|
+/// | 0 | class index in the model's class list, `0xFF` = none (`no_signal`, no model) |
+/// | 1 | confidence · 255, rounded |
+/// | 2 | status: 0 ok, 1 degraded, 2 no_signal |
+/// | 3 | masked model nodes, bit `i` = node `i` |
+/// | 4–5 | window index, u16 little-endian (wraps) |
+/// | 6 | envelope explanation: 0 none, 1 shaft, 2 BPFO, 3 BPFI, 4 BSF, 5 FTF |
+/// | 7 | frame counter, u8 (wraps) |
+#[derive(Debug, Clone)]
+pub struct DiagnosisFrameEncoder {
+    classes: Vec<String>,
+    nodes: Vec<String>,
+    counter: u8,
+}
+
+impl DiagnosisFrameEncoder {
+    /// For a model's class and sensor names (empty for a gateway without a model).
+    pub fn new(classes: Vec<String>, nodes: Vec<String>) -> Self {
+        Self {
+            classes,
+            nodes,
+            counter: 0,
+        }
+    }
+
+    /// For the model a [`ModelDiagnoser`] runs.
+    pub fn for_model(m: &ModelDiagnoser) -> Self {
+        Self::new(
+            m.class_names().map(str::to_string).collect(),
+            m.file
+                .sensor_names()
+                .iter()
+                .map(|s| s.to_string())
+                .collect(),
+        )
+    }
+
+    /// The frame of one window.
+    pub fn encode(&mut self, window: &Window, diagnosis: Option<&Value>) -> [u8; 8] {
+        let mut f = [0u8; 8];
+        let d = diagnosis.unwrap_or(&Value::Null);
+        f[0] = d["class"]
+            .as_str()
+            .and_then(|c| self.classes.iter().position(|k| k == c))
+            .and_then(|i| u8::try_from(i).ok())
+            .unwrap_or(0xFF);
+        f[1] = (d["confidence"].as_f64().unwrap_or(0.0).clamp(0.0, 1.0) * 255.0).round() as u8;
+        f[2] = match d["status"].as_str() {
+            Some("ok") => 0,
+            Some("degraded") => 1,
+            Some(_) => 2,
+            None => u8::from(window.is_degraded()),
+        };
+        if let Some(masked) = d["masked_nodes"].as_object() {
+            for (i, n) in self.nodes.iter().enumerate().take(8) {
+                if masked.contains_key(n) {
+                    f[3] |= 1 << i;
+                }
+            }
+        }
+        f[4..6].copy_from_slice(&(window.index as u16).to_le_bytes());
+        f[6] = match window.explanation.as_ref().map(|e| e.kinematic.line) {
+            None => 0,
+            Some(KinematicLine::Shaft) => 1,
+            Some(KinematicLine::Bpfo) => 2,
+            Some(KinematicLine::Bpfi) => 3,
+            Some(KinematicLine::Bsf) => 4,
+            Some(KinematicLine::Ftf) => 5,
+        };
+        f[7] = self.counter;
+        self.counter = self.counter.wrapping_add(1);
+        f
+    }
 }
