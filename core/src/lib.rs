@@ -11,6 +11,7 @@
 //! | [`fft`] | radix-2 FFT with a caller-owned plan | §4.3, §5.3 |
 //! | [`fir`] | windowed-sinc low-pass, the common band limit and anti-alias filter | — |
 //! | [`features`] | time, spectral and envelope-spectrum node features | eq. 9, Table 3 |
+//! | [`tracking`] | on-edge tracking of radial stiffness and damping Θ by eq. 10 steps on a feature-space loss against the RK4 model | §4.3 eq. 10, eqs. 16–22 |
 //! | [`graph`] | dynamic sparse sensor graph: prior ⊕ Pearson, threshold, normalization | eqs. 1–3 |
 //! | [`quant`] | int8 DS-STGAT kernels (linear, LUTs, softmax, GAT, GRU, pooling, classifier) with float references | eqs. 4–8 |
 //! | [`dsstgat`] | the whole int8 DS-STGAT on one window (embedding → GAT → GRU → pooling → class and indicator heads) and its float reference | eqs. 4–9, 12–13 |
@@ -41,6 +42,7 @@ pub mod model_file;
 pub mod quant;
 pub mod rng;
 pub mod simulator;
+pub mod tracking;
 pub mod units;
 
 pub use error::{Error, Result};

@@ -188,7 +188,12 @@ fn main() -> anyhow::Result<()> {
             }
             let idle = cli.idle_exit.map(Duration::from_secs_f64);
             (
-                Box::new(SocketCanSource::new(iface, Arc::clone(&stop), idle)),
+                Box::new(SocketCanSource::new(
+                    iface,
+                    Arc::clone(&stop),
+                    idle,
+                    cli.publish_id,
+                )),
                 format!("reading {iface}"),
             )
         }
