@@ -429,10 +429,14 @@ impl FeatureConfig {
                 "sampling rate and shaft rate must be > 0",
             ));
         }
-        if self.segments == 0
-            || window % self.segments != 0
-            || !(window / self.segments).is_power_of_two()
-        {
+        if self.segments < 2 {
+            // The segment spectra sit behind the window's envelope spectrum in the
+            // scratch: half a window each at most.
+            return Err(Error::InvalidParameter(
+                "a window needs at least 2 segments",
+            ));
+        }
+        if window % self.segments != 0 || !(window / self.segments).is_power_of_two() {
             return Err(Error::InvalidParameter(
                 "window / segments must be a power of two",
             ));
@@ -455,6 +459,13 @@ pub struct FeatureScratch<const W: usize> {
 }
 
 impl<const W: usize> FeatureScratch<W> {
+    /// The one-sided envelope power spectrum (`W/2 + 1` bins, Hann window, mean
+    /// envelope removed) of the window the last [`node_features`] call saw: what
+    /// [`envelope_spectrum`] returns for it, without a second transform.
+    pub fn envelope_spectrum(&self) -> &[f32] {
+        &self.power[..W / 2 + 1]
+    }
+
     /// Zeroed scratch (≈ 16·W bytes).
     pub const fn new() -> Self {
         Self {
@@ -552,7 +563,8 @@ pub fn node_features<const W: usize>(
             ts.shape_factor,
             ts.impulse_factor,
         ]);
-        let p = &mut scratch.power[..seg / 2 + 1];
+        // Behind the envelope spectrum, which stays readable after the call.
+        let p = &mut scratch.power[half..half + seg / 2 + 1];
         power_spectrum(xs, Window::Hann, &mut scratch.spectrum[..seg], p)?;
         let ss = SpectralStats::compute(p, cfg.fs_hz, cfg.band_limit_hz)?;
         row[TIME_FEATURES..ENVELOPE_OFFSET].copy_from_slice(&[

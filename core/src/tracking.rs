@@ -817,7 +817,15 @@ mod tests {
         };
         let mut fr = vec![0.0f64; 2 * n + 1];
         train
-            .add_to(TimeGrid { t0: 0.0, dt: 0.5 * h }, 1.0, &mut fr, &mut rng)
+            .add_to(
+                TimeGrid {
+                    t0: 0.0,
+                    dt: 0.5 * h,
+                },
+                1.0,
+                &mut fr,
+                &mut rng,
+            )
             .unwrap();
         let ft: Vec<f64> = fr.iter().map(|f| ANGULAR_SHARE * f).collect();
         let mut y = vec![0.0f32; n];
@@ -850,8 +858,8 @@ mod tests {
             .map(|w| {
                 let mut x = [0.0f32; WIN];
                 x.copy_from_slice(&dec[w * WIN..(w + 1) * WIN]);
-                let rms = (x.iter().map(|v| f64::from(*v).powi(2)).sum::<f64>() / WIN as f64)
-                    .sqrt();
+                let rms =
+                    (x.iter().map(|v| f64::from(*v).powi(2)).sum::<f64>() / WIN as f64).sqrt();
                 for v in x.iter_mut() {
                     *v += (noise_rel * rms * rng.normal()) as f32;
                 }
@@ -903,7 +911,11 @@ mod tests {
                 if ek <= 0.02 && ec <= 0.02 {
                     first_within.get_or_insert(i + 1);
                 } else {
-                    assert!(first_within.is_none(), "left the 2 % band at update {}", i + 1);
+                    assert!(
+                        first_within.is_none(),
+                        "left the 2 % band at update {}",
+                        i + 1
+                    );
                 }
             }
             let n = first_within.expect("never within 2 %");
@@ -986,7 +998,10 @@ mod tests {
             assert!(s.loss_after <= s.loss_before);
         }
         let e = rel(tr.theta().stiffness_radial, truth.stiffness_radial);
-        println!("gradient rule: k error 15 % -> {:.2} % in 10 updates", 100.0 * e);
+        println!(
+            "gradient rule: k error 15 % -> {:.2} % in 10 updates",
+            100.0 * e
+        );
         assert!(e < 0.075, "k error {e}");
     }
 
@@ -1061,7 +1076,12 @@ mod tests {
             damping_radial: 0.01 * nominal().damping_radial,
         })
         .unwrap();
-        assert!(rel(tr.theta().stiffness_radial, 1.5 * nominal().stiffness_radial) < 1e-12);
+        assert!(
+            rel(
+                tr.theta().stiffness_radial,
+                1.5 * nominal().stiffness_radial
+            ) < 1e-12
+        );
         assert!(rel(tr.theta().damping_radial, 0.5 * nominal().damping_radial) < 1e-12);
     }
 

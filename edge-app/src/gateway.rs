@@ -14,6 +14,68 @@ use std::sync::Arc;
 pub type Publisher<'d> =
     Box<dyn FnMut(&Window, Option<&serde_json::Value>) -> std::io::Result<()> + 'd>;
 
+/// Latency from the frame that completes a window to its JSON line written (features,
+/// graph, int8 inference, serialization), in a fixed histogram: 10 µs bins up to 20 ms
+/// and one overflow bin, so memory stays constant over months of running.
+#[derive(Debug, Clone)]
+pub struct LatencyHistogram {
+    bins: Box<[u64; LatencyHistogram::BINS + 1]>,
+    count: u64,
+    max_us: u64,
+}
+
+impl Default for LatencyHistogram {
+    fn default() -> Self {
+        Self {
+            bins: Box::new([0; LatencyHistogram::BINS + 1]),
+            count: 0,
+            max_us: 0,
+        }
+    }
+}
+
+impl LatencyHistogram {
+    /// Bin width, µs.
+    pub const BIN_US: u64 = 10;
+    /// Bins below the overflow bin (20 ms).
+    pub const BINS: usize = 2000;
+
+    /// Record one latency.
+    pub fn record(&mut self, d: std::time::Duration) {
+        let us = d.as_micros().min(u128::from(u64::MAX)) as u64;
+        let bin = ((us / Self::BIN_US) as usize).min(Self::BINS);
+        self.bins[bin] += 1;
+        self.count += 1;
+        self.max_us = self.max_us.max(us);
+    }
+
+    /// Latencies recorded.
+    pub fn count(&self) -> u64 {
+        self.count
+    }
+
+    /// The `q` quantile (0..=1), µs, as the upper edge of its bin (`None` if empty;
+    /// the overflow bin reports the maximum seen).
+    pub fn quantile_us(&self, q: f64) -> Option<u64> {
+        if self.count == 0 {
+            return None;
+        }
+        let rank = ((q.clamp(0.0, 1.0) * self.count as f64).ceil() as u64).max(1);
+        let mut seen = 0;
+        for (i, &n) in self.bins.iter().enumerate() {
+            seen += n;
+            if seen >= rank {
+                return Some(if i == Self::BINS {
+                    self.max_us
+                } else {
+                    (i as u64 + 1) * Self::BIN_US
+                });
+            }
+        }
+        Some(self.max_us)
+    }
+}
+
 /// Bad log lines reported individually before the rest are only counted.
 pub const BAD_LINES_SHOWN: u64 = 10;
 
@@ -44,6 +106,8 @@ pub struct Gateway<'d> {
     stop: Option<Arc<AtomicBool>>,
     /// Publisher calls that failed (logged on stderr, the run goes on).
     pub publish_failures: u64,
+    /// Frame → JSON line latency of every window.
+    pub latency: LatencyHistogram,
 }
 
 impl std::fmt::Debug for Gateway<'_> {
@@ -69,6 +133,7 @@ impl<'d> Gateway<'d> {
             publisher: None,
             stop: None,
             publish_failures: 0,
+            latency: LatencyHistogram::default(),
         }
     }
 
@@ -134,6 +199,7 @@ impl<'d> Gateway<'d> {
                 Err(e) => return Err(GatewayError::Source(e)),
             };
             self.pacer.wait_for(frame.ts_us);
+            let t_frame = std::time::Instant::now();
             for window in self.pipeline.push(&frame).windows {
                 let diagnosis = match self.diagnoser.as_mut() {
                     Some(d) => Some(d.diagnose(&window)?),
@@ -143,6 +209,7 @@ impl<'d> Gateway<'d> {
                 out.write_all(line.as_bytes())?;
                 out.write_all(b"\n")?;
                 out.flush()?;
+                self.latency.record(t_frame.elapsed());
                 if let Some(p) = self.publisher.as_mut() {
                     if let Err(e) = p(&window, diagnosis.as_ref()) {
                         self.publish_failures += 1;

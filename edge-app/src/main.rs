@@ -203,6 +203,16 @@ fn main() -> anyhow::Result<()> {
     out.flush().context("flushing the output")?;
     let health = gateway.pipeline().health();
     eprintln!("pumptwin-edge: {health}");
+    if let (Some(p50), Some(p99)) = (
+        gateway.latency.quantile_us(0.5),
+        gateway.latency.quantile_us(0.99),
+    ) {
+        eprintln!(
+            "pumptwin-edge: frame -> window line latency over {} windows: p50 {p50} us, p99 {p99} us, max {} us",
+            gateway.latency.count(),
+            gateway.latency.quantile_us(1.0).unwrap_or(0)
+        );
+    }
     if gateway.publish_failures > 0 {
         eprintln!(
             "pumptwin-edge: {} diagnosis frames could not be sent",

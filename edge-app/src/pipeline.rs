@@ -70,10 +70,9 @@ use crate::explain::{nearest_kinematic, Explanation, PEAK_BAND_HZ};
 use crate::ring::SampleRing;
 use crate::sensor_map::{Channel, LayoutError, Machine, SensorMap, MAX_SAMPLES_PER_FRAME};
 use pumptwin_core::features::{
-    envelope_spectrum, node_features, peak_frequency, FeatureConfig, FeatureScratch, TimeStats,
-    FEATURE_DIM, FEATURE_NAMES,
+    node_features, peak_frequency, FeatureConfig, FeatureScratch, TimeStats, FEATURE_DIM,
+    FEATURE_NAMES,
 };
-use pumptwin_core::fft::Complex32;
 use pumptwin_core::fir::FirLowpass;
 use serde::Serialize;
 
@@ -385,9 +384,6 @@ struct ChannelState {
 #[derive(Debug)]
 struct Scratch {
     features: FeatureScratch<WINDOW>,
-    spectrum: [Complex32; WINDOW],
-    env: [f32; WINDOW],
-    env_spectrum: [f32; WINDOW / 2 + 1],
     median: [f32; WINDOW / 2 + 1],
 }
 
@@ -441,9 +437,6 @@ impl Pipeline {
             window: Box::new([0.0; WINDOW]),
             scratch: Box::new(Scratch {
                 features: FeatureScratch::new(),
-                spectrum: [Complex32::ZERO; WINDOW],
-                env: [0.0; WINDOW],
-                env_spectrum: [0.0; WINDOW / 2 + 1],
                 median: [0.0; WINDOW / 2 + 1],
             }),
         })
@@ -680,15 +673,8 @@ fn analyse(
     let mut rows = [[0.0f32; FEATURE_DIM]; SEGMENTS];
     node_features(x, cfg, &mut s.features, &mut rows)?;
     let time = TimeStats::compute(x)?;
-    envelope_spectrum(
-        x,
-        cfg.fs_hz,
-        cfg.envelope_band,
-        &mut s.spectrum,
-        &mut s.env,
-        &mut s.env_spectrum,
-    )?;
-    let spec = &s.env_spectrum;
+    // The envelope spectrum node_features just computed (no second transform).
+    let spec = s.features.envelope_spectrum();
     let peak_hz = peak_frequency(spec, cfg.fs_hz, PEAK_BAND_HZ.0, PEAK_BAND_HZ.1)?;
     let df = cfg.fs_hz / WINDOW as f32;
     let k = (peak_hz / df).round() as usize;
