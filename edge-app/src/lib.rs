@@ -8,6 +8,7 @@
 //! | module | what |
 //! |---|---|
 //! | [`candump`] | `candump -l` log lines → [`candump::Frame`]; the [`candump::FrameSource`] trait and [`candump::CandumpReplay`] |
+//! | [`dbc`] | slow sensors (shaft speed, temperature, pressure) from DBC signals (`can-dbc`) |
 //! | [`sensor_map`] | TOML sensor map: machine (speed, bearing, fs) and channel layouts, validated |
 //! | [`ring`] | fixed-size sample ring addressed by absolute sample index |
 //! | [`pipeline`] | frame classification and health counters, windows, core features per channel |
@@ -26,6 +27,7 @@
 #![warn(missing_docs)]
 
 pub mod candump;
+pub mod dbc;
 pub mod diagnosis;
 pub mod explain;
 pub mod gateway;

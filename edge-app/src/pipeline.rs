@@ -66,6 +66,7 @@
 //! ```
 
 use crate::candump::{Frame, FrameKind};
+use crate::dbc::SlowSignals;
 use crate::explain::{nearest_kinematic, Explanation, PEAK_BAND_HZ};
 use crate::ring::SampleRing;
 use crate::sensor_map::{Channel, LayoutError, Machine, SensorMap, MAX_SAMPLES_PER_FRAME};
@@ -233,6 +234,12 @@ pub enum Disposition {
         /// Channel index.
         channel: usize,
     },
+    /// A DBC message with slow signals, decoded (counted as used).
+    Slow,
+    /// A DBC message too short for one of its signals (counted as malformed).
+    SlowMalformed,
+    /// A DBC message with a timestamp before the previous frame's (counted as late).
+    SlowLate,
     /// A remote frame.
     Remote,
     /// An error frame.
@@ -299,6 +306,8 @@ pub struct Window {
     pub channels: Vec<ChannelWindow>,
     /// The physics explanation (`None` when no channel has features).
     pub explanation: Option<Explanation>,
+    /// Latest slow-sensor values from DBC signals: `(role, value, unit)`.
+    pub slow: Vec<(&'static str, f64, String)>,
     /// Counters as of this window.
     pub health: Health,
 }
@@ -392,6 +401,7 @@ struct Scratch {
 pub struct Pipeline {
     machine: Machine,
     cfg: FeatureConfig,
+    slow: SlowSignals,
     channels: Vec<ChannelState>,
     decoded: heapless::Vec<f32, MAX_SAMPLES_PER_FRAME>,
     next_start: u64,
@@ -428,6 +438,7 @@ impl Pipeline {
         Ok(Self {
             machine: map.machine,
             cfg,
+            slow: map.slow,
             channels,
             decoded: heapless::Vec::new(),
             next_start: 0,
@@ -467,6 +478,35 @@ impl Pipeline {
         self.health.bad_lines += 1;
     }
 
+    /// A DBC message with slow signals: decoded (not when late), and a new shaft speed
+    /// takes effect for the next windows.
+    fn slow_frame(&mut self, frame: &Frame, late: bool) -> Disposition {
+        if late {
+            return Disposition::SlowLate;
+        }
+        if !self.slow.update(frame) {
+            return Disposition::SlowMalformed;
+        }
+        if let Some(rpm) = self.slow.value("rpm") {
+            let hz = (rpm / 60.0) as f32;
+            if hz.is_finite() && hz > 0.0 && hz != self.cfg.shaft_hz {
+                self.cfg =
+                    FeatureConfig::standard(self.machine.fs_hz, hz, self.machine.bearing.orders());
+            }
+        }
+        Disposition::Slow
+    }
+
+    /// Latest slow-sensor values (`(role, value, unit)`), for the window output.
+    pub fn slow_values(&self) -> Vec<(&'static str, f64, String)> {
+        self.slow
+            .signals
+            .iter()
+            .zip(&self.slow.latest)
+            .filter_map(|(s, v)| v.map(|v| (s.role, v, s.unit.clone())))
+            .collect()
+    }
+
     /// Take one frame: classify and count it, store its samples, and return the windows
     /// it completed.
     pub fn push(&mut self, frame: &Frame) -> Pushed {
@@ -491,6 +531,18 @@ impl Pipeline {
             }
             Disposition::UnknownId => {
                 h.unknown_id += 1;
+                None
+            }
+            Disposition::Slow => {
+                h.used += 1;
+                None
+            }
+            Disposition::SlowMalformed => {
+                h.malformed += 1;
+                None
+            }
+            Disposition::SlowLate => {
+                h.late += 1;
                 None
             }
             Disposition::Malformed { .. } => {
@@ -524,6 +576,9 @@ impl Pipeline {
     /// channel's sequence state.
     fn classify_data(&mut self, frame: &Frame, late: bool) -> Disposition {
         let Some(channel) = self.channels.iter().position(|c| c.spec.matches(frame)) else {
+            if self.slow.matches(frame) {
+                return self.slow_frame(frame, late);
+            }
             return Disposition::UnknownId;
         };
         let ch = &mut self.channels[channel];
@@ -622,6 +677,7 @@ impl Pipeline {
             shaft_hz: self.cfg.shaft_hz,
             channels,
             explanation,
+            slow: self.slow_values(),
             health: Health::default(),
         };
         self.next_start += HOP as u64;

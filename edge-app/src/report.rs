@@ -16,7 +16,9 @@
 //!   },
 //!   "explanation": {"channel", "peak_hz", "peak_order", "prominence_db", "match",
 //!                   "harmonic", "match_hz", "error_pct", "within_tolerance"} | null,
-//!   "diagnosis": …,                    only with a Diagnoser (the model, later)
+//!   "slow": {"rpm": {"value", "unit"}, "temperature": …, "pressure": …},
+//!                                      only with a [dbc] section: latest DBC signal values
+//!   "diagnosis": …,                    only with a Diagnoser (`--model`)
 //!   "health": {"frames_total", "used", "out_of_sequence", "unknown_id", "malformed",
 //!              "late", "remote", "error_frames", "lost_frames", "bad_lines",
 //!              "realignments", "windows", "degraded_windows"}
@@ -98,9 +100,17 @@ struct WindowReport<'a> {
     shaft_hz: f32,
     channels: Ordered<'a, ChannelReport>,
     explanation: Option<&'a Explanation>,
+    #[serde(skip_serializing_if = "Ordered::is_empty")]
+    slow: Ordered<'a, SlowReport<'a>>,
     #[serde(skip_serializing_if = "Option::is_none")]
     diagnosis: Option<&'a serde_json::Value>,
     health: &'a Health,
+}
+
+#[derive(Debug, Serialize)]
+struct SlowReport<'a> {
+    value: f64,
+    unit: &'a str,
 }
 
 /// The JSON line (without newline) of `window`, with the diagnosis if there is one.
@@ -133,6 +143,21 @@ pub fn window_json(
         shaft_hz: window.shaft_hz,
         channels: Ordered(channels),
         explanation: window.explanation.as_ref(),
+        slow: Ordered(
+            window
+                .slow
+                .iter()
+                .map(|(role, value, unit)| {
+                    (
+                        *role,
+                        SlowReport {
+                            value: *value,
+                            unit: unit.as_str(),
+                        },
+                    )
+                })
+                .collect(),
+        ),
         diagnosis,
         health: &window.health,
     };

@@ -30,6 +30,7 @@
 //! [`BearingGeometry`]). Every channel shares `fs_hz` in this version.
 
 use crate::candump::{Frame, CANFD_LENGTHS, CANFD_MAX_DLEN, CAN_MAX_DLEN, EFF_MAX, SFF_MAX};
+use crate::dbc::SlowSignals;
 use pumptwin_core::bearing::BearingGeometry;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
@@ -54,6 +55,8 @@ pub struct SensorMap {
     pub machine: Machine,
     /// Channels in file order (the order of the JSON output and of graph nodes).
     pub channels: Vec<Channel>,
+    /// Slow sensors from the `[dbc]` section (empty without one).
+    pub slow: SlowSignals,
 }
 
 /// What the user knows about the machine.
@@ -188,6 +191,17 @@ impl Channel {
 #[non_exhaustive]
 #[derive(Debug, thiserror::Error)]
 pub enum SensorMapError {
+    /// The `[dbc]` part: file unreadable or unparsable, a signal not in it.
+    #[error(transparent)]
+    Dbc(#[from] crate::dbc::DbcError),
+    /// A DBC signal's message uses a channel's identifier.
+    #[error("DBC signal {signal:?} uses the CAN id of channel {channel:?}")]
+    DbcIdClash {
+        /// The signal.
+        signal: String,
+        /// The channel.
+        channel: String,
+    },
     /// The file could not be read.
     #[error("reading sensor map {path}: {source}")]
     Read {
@@ -310,6 +324,20 @@ struct RawMap {
     machine: RawMachine,
     #[serde(default)]
     channel: Vec<RawChannel>,
+    #[serde(default)]
+    dbc: Option<RawDbc>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawDbc {
+    file: String,
+    #[serde(default)]
+    rpm: Option<String>,
+    #[serde(default)]
+    temperature: Option<String>,
+    #[serde(default)]
+    pressure: Option<String>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -350,12 +378,32 @@ impl SensorMap {
             path: path.to_owned(),
             source,
         })?;
-        Self::from_toml_str(&text)
+        Self::from_toml_str_in(&text, path.parent().unwrap_or(Path::new(".")))
     }
 
-    /// Parse and validate a sensor map.
+    /// Parse and validate a sensor map (a DBC file it names is relative to the
+    /// current directory).
     pub fn from_toml_str(text: &str) -> Result<Self, SensorMapError> {
+        Self::from_toml_str_in(text, Path::new("."))
+    }
+
+    /// Parse and validate a sensor map whose DBC file is relative to `base`.
+    pub fn from_toml_str_in(text: &str, base: &Path) -> Result<Self, SensorMapError> {
         let raw: RawMap = toml::from_str(text)?;
+        let slow = match raw.dbc {
+            None => SlowSignals::default(),
+            Some(d) => {
+                let names: Vec<(&'static str, String)> = [
+                    ("rpm", d.rpm),
+                    ("temperature", d.temperature),
+                    ("pressure", d.pressure),
+                ]
+                .into_iter()
+                .filter_map(|(role, n)| n.map(|n| (role, n)))
+                .collect();
+                SlowSignals::load(&base.join(&d.file), &names)?
+            }
+        };
         let machine = validate_machine(raw.machine)?;
         if raw.channel.is_empty() {
             return Err(SensorMapError::NoChannels);
@@ -379,7 +427,22 @@ impl SensorMap {
             }
             channels.push(ch);
         }
-        Ok(Self { machine, channels })
+        if let Some((s, c)) = slow.signals.iter().find_map(|s| {
+            channels
+                .iter()
+                .find(|c| c.can_id == s.id() && c.extended == s.extended())
+                .map(|c| (s, c))
+        }) {
+            return Err(SensorMapError::DbcIdClash {
+                signal: s.name.clone(),
+                channel: c.name.clone(),
+            });
+        }
+        Ok(Self {
+            machine,
+            channels,
+            slow,
+        })
     }
 
     /// Index of the channel that `frame`'s identifier belongs to.

@@ -11,6 +11,7 @@ use pumptwin_edge::diagnosis::{DiagnoseError, Diagnoser};
 use pumptwin_edge::gateway::Gateway;
 use pumptwin_edge::pace::{Pacer, Speed};
 use pumptwin_edge::pipeline::{Disposition, Health, Pipeline, Window, ENV_BPFI_DB, HOP, WINDOW};
+use pumptwin_edge::sensor_map::SensorMap;
 use serde_json::Value;
 
 /// Run frames (or errors) through a gateway; the JSON lines, parsed, and the counters.
@@ -449,4 +450,71 @@ fn parse_line_is_the_public_entry_for_one_line() {
         .unwrap()
         .unwrap();
     assert!(f.fd && f.data.len() == 12);
+}
+
+/// Slow sensors from a DBC file: a speed frame changes the shaft rate of the windows
+/// after it, temperature and pressure appear under "slow", the DBC frames count as
+/// used, a short one as malformed, and the counters add up.
+#[test]
+fn dbc_slow_signals_update_speed_and_report_values() {
+    let dir = std::env::temp_dir().join(format!("pumptwin-edge-dbc-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("pump.dbc"),
+        "VERSION \"\"\n\nNS_ :\n\nBS_:\n\nBU_: PUMP\n\n\
+         BO_ 1536 PumpSlow: 8 PUMP\n \
+         SG_ ShaftSpeed : 0|16@1+ (0.25,0) [0|16000] \"rpm\" Vector__XXX\n \
+         SG_ BearingTemp : 16|12@1- (0.1,-20) [-40|150] \"degC\" Vector__XXX\n \
+         SG_ DischargePressure : 39|16@0+ (0.001,0) [0|60] \"bar\" Vector__XXX\n\n",
+    )
+    .unwrap();
+    let text = format!(
+        "{MAP_DE_FE}\n[dbc]\nfile = \"pump.dbc\"\nrpm = \"ShaftSpeed\"\n\
+         temperature = \"BearingTemp\"\npressure = \"DischargePressure\"\n"
+    );
+    let m = SensorMap::from_toml_str_in(&text, &dir).unwrap();
+    let n = 4 * WINDOW;
+    let signals = vec![
+        impact_signal(n, bpfi_hz(), 1.0, 0.05, 1),
+        impact_signal(n, bpfi_hz(), 0.3, 0.05, 2),
+    ];
+    let mut frames = encode(&m, &signals, 0);
+    // 1500 rpm (raw 6000 = 0x1770), 35 °C, 4.2 bar, after the first window's samples.
+    let at = T0_US + ((WINDOW + 10) as f64 / FS * 1e6) as u64;
+    frames.push(raw_frame(
+        at,
+        1536,
+        &[0x70, 0x17, 0x26, 0x02, 0x10, 0x68, 0, 0],
+    ));
+    frames.push(raw_frame(at + 1, 1536, &[0x70]));
+    frames.sort_by_key(|f| f.ts_us);
+    let total = frames.len() as u64;
+    let mut gateway = Gateway::new(Pipeline::new(m).unwrap(), Pacer::new(Speed::Max));
+    let mut out = Vec::new();
+    let health = gateway
+        .run(
+            &mut ScriptedBus(frames.into_iter().map(Ok).collect::<Vec<_>>().into_iter()),
+            &mut out,
+            &mut Vec::new(),
+        )
+        .unwrap();
+    let lines: Vec<Value> = String::from_utf8(out)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(health.frames_total, total);
+    assert_eq!(health.frames_classified(), total);
+    assert_eq!(health.malformed, 1);
+    let first = &lines[0];
+    assert!((first["shaft_hz"].as_f64().unwrap() - 1797.0 / 60.0).abs() < 1e-3);
+    let last = lines.last().unwrap();
+    assert!(
+        (last["shaft_hz"].as_f64().unwrap() - 25.0).abs() < 1e-4,
+        "{last}"
+    );
+    assert!((last["slow"]["temperature"]["value"].as_f64().unwrap() - 35.0).abs() < 1e-9);
+    assert_eq!(last["slow"]["pressure"]["unit"], "bar");
+    assert!((last["slow"]["rpm"]["value"].as_f64().unwrap() - 1500.0).abs() < 1e-9);
+    let _ = std::fs::remove_dir_all(&dir);
 }
