@@ -1,85 +1,108 @@
 //! On-edge tracking of the radial stiffness and damping `Θ = (k_r, c_r)` (paper §4.3,
 //! eq. 10) with the core's RK4 bearing model (§5, eqs. 16–22): one sensor window in,
-//! one parameter update out, no heap, a few milliseconds per window.
+//! one parameter update out, no heap; an update is four short RK4 runs (≈ 0.6 ms on
+//! one desktop core for a 2048-sample window).
 //!
 //! ```text
-//! model (per update, from rest, warm-up dropped):
+//! model (one run, from rest):
 //!   m·ẍ_r + c_r·ẋ_r + k_r·x_r + k_r,NL·x_r³ = F(t)            (16–17, Θ = (k_r, c_r))
 //!   m·ẍ_θ + c_θ·ẋ_θ + k_θ·x_θ + k_θ,NL·x_θ³ = s_θ·F(t)        (nominal, not tracked)
-//!   F(t) = Σ_n A·exp(−(t − t_n)²/(2σ²)), t_n = t_1 + n/f_defect           (18)
-//!   y = ẍ_r + g_θ·ẍ_θ,  RK4 at h = 1/(M·fs) (22), anti-alias FIR, every M-th sample
+//!   F(t) = A·exp(−(t − t_1)²/(2σ²)),  t_1 = 8σ                 one eq. 18 impact
+//!   y = ẍ_r + g_θ·ẍ_θ:  RK4 at h = 1/(M·fs) (22), anti-alias FIR, every M-th sample,
+//!   for 8 decay times 2m/c of the slowest observed DOF (≤ W samples), zero-padded to W
 //! band (fixed for one update, from the current Θ):
-//!   f̂_n = √(k_r/m)/2π,   B = [f̂_n(1 − β), f̂_n(1 + β)] ∩ [f_min, f_max]
-//! features of a window x (measured or simulated):
-//!   P_k = Hann power spectrum of x − mean(x),   k: f_k ∈ B
-//!   f_c = Σ f_k·P_k / Σ P_k                         spectral centroid
-//!   s   = √(Σ (f_k − f_c)²·P_k / Σ P_k)              spectral spread
+//!   f̂_n = √(k_r/m)/2π,   B = [f̂_n(1 − β), f̂_n(1 + β)] ∩ [f_min, f_max] = [lo, hi]
+//! features (measured: Hann power spectrum of x − mean(x); model: rectangular):
+//!   u_k = ½ − ½·cos(2π(f_k − lo)/(hi − lo))                    band taper, f_k ∈ B
+//!   f_c = Σ u_k·f_k·P_k / Σ u_k·P_k                            spectral centroid
+//!   s   = √(Σ u_k·(f_k − f_c)²·P_k / Σ u_k·P_k)                 spectral spread
 //!   z   = [ln f_c, ln s]
 //! loss (the feature-space consistency loss L_phy):
 //!   L(Θ) = Σ_i w_i·(z_meas,i − z_sim,i(Θ))²
 //! update (φ = [ln k_r, ln c_r], r = z_meas − z_sim(φ)):
-//!   J_ij = (z_sim,i(φ + δ·e_j) − z_sim,i(φ)) / δ       RK4 runs, same F(t)
+//!   J_ij = (z_sim,i(φ + δ·e_j) − z_sim,i(φ)) / δ               two more RK4 runs
 //!   ∇_φ L = −2·JᵀW r
 //!   Gauss–Newton:  φ ← φ − η·(2JᵀWJ + λ·diag(2JᵀWJ))⁻¹ ∇_φ L   (eq. 10, GN metric)
 //!   gradient:      φ ← φ − η·∇_φ L                               (eq. 10 as printed)
+//!   η = diag(η_k, η_c)
 //!   max_i |Δφ_i| ≤ Δ_max;  φ clamped to [ln(b_lo·Θ_nom), ln(b_hi·Θ_nom)];
-//!   a step that raises L is halved (at most `max_backtracks` times), else rejected
+//!   a step that raises L (same window, same band) is halved up to `max_backtracks`
+//!   times, then rejected
 //! ```
 //!
 //! Why these two features identify `k_r` and `c_r`: near its resonance the radial
 //! accelerance of eq. 16 is a peak at `f_n = √(k_r/m)/2π` whose half-power half-width
-//! is `γ = ζ·f_n = c_r/(4π·m)`, which does not depend on `k_r`. The centroid of the
-//! band therefore moves with `½·Δln k_r` and hardly with `c_r`; the spread of a peak
-//! with Lorentzian tails over a band of half-width `W` is `s² ≈ (2/π)·W·γ`, so
-//! `Δln s ≈ ½·Δln c_r`, and `W` is fixed within an update, so `s` hardly moves with
-//! `k_r`. The Jacobian is ≈ `½·I`: well conditioned, one Gauss–Newton step per window
-//! removes most of the error. These slopes are only the argument; the tracker uses the
-//! Jacobian of the simulated features, so band truncation, the accelerance's `f⁴`
-//! skew, the pulse spectrum, the angular mode in the band and the anti-alias filter
-//! are all in the model's features exactly as they are in the measured ones.
-//! Both features are ratios of band sums, so the unknown sensor gain and impact force
-//! cancel, and power spectra discard the phase of the impacts within the window.
+//! is `γ = ζ·f_n = c_r/(4π·m)`, which does not depend on `k_r`. The centroid moves with
+//! `f_n`, i.e. with `½·Δln k_r`, and hardly with `c_r`; the spread of a peak with
+//! Lorentzian tails over a band of half-width `W_B` is `s² ∝ W_B·γ`, so it moves with
+//! `Δln c_r`, and `W_B` is fixed within an update. Around the default housing
+//! (`k_r` within ±30 %, `c_r` within −40 … +10 % of nominal) the simulated Jacobian is
+//! `∂ln f_c/∂(ln k, ln c) ≈ (0.35 … 0.42, 0.01)` and
+//! `∂ln s/∂(ln k, ln c) ≈ (−0.65, 0.37 … 0.44)`: triangular, well conditioned. The
+//! `k` column of `s` comes from the skew of the accelerance (its centroid sits ≈ 50 Hz
+//! above `f_n`) inside the tapered band. The tracker uses that simulated Jacobian, not
+//! the slopes of the argument, so band truncation, the taper, the accelerance's `f⁴`
+//! skew, the pulse spectrum, the angular mode and the anti-alias filter are in the
+//! model's features exactly as in the measured ones. Both features are ratios of band
+//! sums, so the unknown sensor gain, impact force and impact count cancel, and power
+//! spectra discard the impacts' phase within the window.
 //!
-//! Choices, and why:
+//! Why the model runs one impact, not a train at the defect rate: for impacts at
+//! `t_n = t_1 + n·T + ε_n` with slip `ε_n ~ N(0, σ_j²)` the expected spectrum is
+//!
+//! ```text
+//! E|Y(f)|² = |H(f)·P(f)|² · [ N·(1 − φ²) + φ²·|Σ_n exp(−2πi·f·n·T)|² ],   φ = exp(−(2πfσ_j)²/2)
+//! ```
+//!
+//! a continuum `N·|HP|²` plus a comb at multiples of `1/T` weighted by `φ²`. Both carry
+//! the same power per comb spacing, so band sums of the measured spectrum equal those
+//! of the continuum up to the comb's sampling (Poisson-summation) error, weighted
+//! by `φ²`, which is small when slip smears the comb at the resonance. One impact's
+//! response *is* the continuum. A periodic-train model is all comb (`φ = 1`), and its
+//! features depend on where the resonance falls between comb lines: in this module's
+//! tests (3 kHz, ζ = 0.05, BPFI 162 Hz, 1 % slip) that cost ±1.5–2 % in `c_r` and up to
+//! 0.07 % in `k_r` depending on `k_r`, against ±0.4 % and ≤ 0.04 % for one impact (0 at
+//! 2 % slip; a strictly periodic, slip-free train leaves ±1.5 % in `c_r`; real bearings
+//! slip 1–2 %). The defect rate then drops out of the model, and a run covers
+//! 8 decay times (242 samples here) instead of a whole window: ≈ 4× cheaper per update.
+//! The pulse is rendered by [`ImpactTrain`] (eq. 18) with a period beyond the run.
+//!
+//! Other choices, and why:
 //! - The model is the full 2-DOF [`Bearing2Dof`] with the angular DOF at its nominal
-//!   parameters, driven by `s_θ·F` and seen with gain `g_θ`: a second mode near the band
-//!   (1.8 kHz next to 3 kHz in [`BearingParams::default_housing`]) biases both features,
-//!   so a radial-only model would be dishonest; simulating it costs nothing extra.
-//! - The model's excitation is the *deterministic* eq. 18 train at the configured
-//!   defect rate (jitter must be 0; load-zone modulation and speed drift are allowed).
-//!   A real train's spectrum is a comb at multiples of `f_defect`, partly smeared into
-//!   a continuum by slip; band sums of `|H(f)|²` over a comb equal the integral up to
-//!   terms of order `exp(−2π·γ/f_defect)` (Poisson summation), so a measured (jittered,
-//!   unknown phase) and a modelled (periodic) train give the same features when the
-//!   peak is wider than about half the comb spacing (`γ ≳ f_defect/2`; 3 kHz, ζ = 0.05,
-//!   BPFI 162 Hz: `exp(−5.8)`). For much lighter damping the comb shows in the
-//!   features and the tracker's accuracy degrades.
-//! - Deterministic excitation is what lets the model run in chunks of
-//!   [`CHUNK_SAMPLES`] output samples, so no buffer scales with `M·W`; the
-//!   force is re-rendered per chunk on the RK4 half-step grid (chunk renders of a
-//!   deterministic train are identical to one whole render). Every run of one update
-//!   sees the same force (common random numbers), so finite differences are smooth.
+//!   parameters, driven by `s_θ·F` and seen with gain `g_θ`: a second mode next to the
+//!   band (1.8 kHz beside 3 kHz in [`BearingParams::default_housing`]) moves both
+//!   features, so a radial-only model would be biased; simulating it costs nothing.
+//! - The model runs in chunks of [`CHUNK_SAMPLES`] output samples, so no buffer scales
+//!   with `M·W`: the force is rendered per chunk on the RK4 half-step grid.
 //! - Anti-alias: the acceleration contains the force feed-through `F/m`, which is
-//!   broadband; keeping every M-th sample without a filter would fold it into the band.
+//!   broadband; keeping every M-th sample unfiltered would fold it into the band.
 //!   A Blackman-windowed-sinc FIR from [`crate::fir::design_lowpass`] with `24·M + 1`
 //!   taps at `fs/2` (flat to ≈ 0.38·fs, ≥ 74 dB beyond ≈ 0.62·fs) is evaluated only at
 //!   the kept instants. `f_max` should stay inside the flat part of the measurement
-//!   chain too (≈ 0.38·fs; 4.6 kHz at 12 kHz below the 5 kHz band limit).
+//!   chain too (≈ 0.38·fs; 4.6 kHz at 12 kHz, below the 5 kHz band limit).
+//! - The taper `u` makes the features smooth functions of the band position and
+//!   insensitive to how many comb lines of a measured train fall inside the band
+//!   (with sharp edges, 13 ± 1 lines: the spread moved by 2.3 %).
+//! - Spectra: a measured window is a stationary segment and needs the Hann window;
+//!   a model run has decayed inside the window, so its rectangular (zero-padded)
+//!   spectrum is leakage-free and samples `|H·P|²` on the same bins.
 //! - Log parameters make steps relative and keep `k_r, c_r > 0`; bounds (default
 //!   ±50 % of nominal) keep a bad window from walking Θ away. η < 1 averages over
 //!   windows (an exponential smoother of the per-window Gauss–Newton estimate): noise
 //!   shrinks by `√(η/(2−η))`, a steady drift of `d` per window lags by `≈ d·(1−η)/η`.
+//!   One window pins `ln f_c` to ≈ 0.1 % but `ln s` only to ≈ 0.4 % (per-window
+//!   estimates: `k_r` ± 0.1 %, `c_r` ± 1 % at 10 % noise), and damping changes more
+//!   slowly than wear-driven stiffness, hence the default `η = (0.5, 0.25)`.
 //! - The band follows the current Θ (fixed within one update), so the resonance stays
 //!   centred however far it drifts within the bounds.
-//! - Known bias: white measurement noise adds a flat floor the model lacks; at an RMS
-//!   of 10 % of the signal's it widens the measured spread by < 1 % (damping reads
-//!   high by < 2 %) and pulls the centroid towards the band centre, i.e. towards the
-//!   current estimate (a slight additional lag).
+//! - Known bias: white measurement noise adds a flat floor the model lacks and widens
+//!   the measured spread: `c_r` reads high by ≈ 1 % at a noise RMS of 10 % of the
+//!   signal's and ≈ 7 % at 30 % (`k_r` by < 0.3 %).
 //!
 //! Errors leave Θ unchanged: a NaN/∞ sample → [`Error::NonFinite`]; a constant (or
 //! all-zero) window → [`Error::Degenerate`] (an error, not a no-op: a dead sensor says
-//! nothing about the bearing); a simulation whose state stops being finite →
-//! [`Error::Diverged`] (global RK4 step index); a singular Jacobian (the band holds no
+//! nothing about the bearing); a run whose state or output stops being finite →
+//! [`Error::Diverged`] (RK4 step index); a singular Jacobian (the band holds no
 //! resonance) → [`Error::Degenerate`].
 
 use crate::error::{Error, Result};
@@ -94,14 +117,18 @@ use crate::simulator::{Bearing2Dof, BearingParams, State};
 pub const MAX_OVERSAMPLE: usize = 8;
 /// Output samples simulated per chunk (the force buffers hold `2·M·CHUNK + 1` values).
 pub const CHUNK_SAMPLES: usize = 32;
+/// Smallest window the tracker accepts.
+pub const MIN_WINDOW: usize = 64;
+/// Decay times `2m/c` a model run covers (amplitude e⁻⁸ ≈ 3·10⁻⁴ at the end).
+pub const DECAY_TIMES: f64 = 8.0;
 /// Anti-alias FIR taps per unit of oversampling (`24·M + 1` taps).
 const TAPS_PER_OVERSAMPLE: usize = 24;
 const MAX_TAPS: usize = TAPS_PER_OVERSAMPLE * MAX_OVERSAMPLE + 1;
 const MAX_CHUNK_STEPS: usize = MAX_OVERSAMPLE * CHUNK_SAMPLES;
-/// Smallest window the tracker accepts.
-pub const MIN_WINDOW: usize = 64;
 /// Fewest spectrum bins a feature band must hold.
 const MIN_BAND_BINS: usize = 8;
+/// The impact sits at `t_1 = PULSE_LEAD_SIGMAS·σ`, so the run starts at rest.
+const PULSE_LEAD_SIGMAS: f64 = 8.0;
 
 /// The tracked parameters, in SI units as in [`BearingParams`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -165,9 +192,11 @@ pub struct TrackerConfig {
     pub fs_hz: f64,
     /// Nominal 2-DOF parameters: Θ starts here, everything but Θ stays here.
     pub nominal: BearingParams,
-    /// The model's excitation: a deterministic eq. 18 train at the defect rate
-    /// (`jitter` must be 0). Its amplitude only matters through the cubic stiffness.
-    pub excitation: ImpactTrain,
+    /// Peak impact force `A` of eq. 18, N. The features do not depend on it except
+    /// through the cubic stiffness (which sets how the frequency rises with amplitude).
+    pub impact_amplitude_n: f64,
+    /// Impact width σ of eq. 18, s (sets the pulse spectrum `P(f)`).
+    pub impact_sigma_s: f64,
     /// Share `s_θ` of the force that acts on the angular DOF.
     pub angular_share: f64,
     /// Gain `g_θ` of the angular acceleration in the sensor signal, relative to the
@@ -175,8 +204,6 @@ pub struct TrackerConfig {
     pub angular_gain: f64,
     /// RK4 steps per output sample `M`, 1..=[`MAX_OVERSAMPLE`].
     pub oversample: usize,
-    /// Output samples simulated from rest and dropped before the window.
-    pub warmup_samples: usize,
     /// Relative half-width β of the feature band around the model's `f_n`, in (0, 1).
     pub band_half_width: f64,
     /// Lowest band frequency, Hz.
@@ -185,12 +212,11 @@ pub struct TrackerConfig {
     pub band_max_hz: f64,
     /// Weights `w` of `[ln f_c, ln s]` in the loss.
     pub weights: [f64; 2],
-    /// Learning rate η of eq. 10.
-    pub learning_rate: f64,
+    /// Learning rates `[η_k, η_c]` of eq. 10 for `ln k_r` and `ln c_r` (a diagonal
+    /// preconditioner; one value for both is the paper's scalar η).
+    pub learning_rate: [f64; 2],
     /// Gauss–Newton or plain gradient.
     pub step_rule: StepRule,
-    /// Isolated-impact model (experimental).
-    pub isolated: bool,
     /// Largest change of `ln k_r` or `ln c_r` in one step.
     pub max_log_step: f64,
     /// Finite-difference step δ in `ln k_r` and `ln c_r`.
@@ -205,38 +231,32 @@ pub struct TrackerConfig {
 
 impl TrackerConfig {
     /// The edge defaults for `fs_hz`: M = 4 (RK4 within 0.3 % of the exact response at
-    /// 3 kHz and 48 kHz, see `trainer::twin::model::OVERSAMPLE`), band ±35 % of `f_n`
-    /// within [0.02·fs, 0.38·fs], Gauss–Newton with η = 0.5, steps ≤ 0.1 in log,
-    /// δ = 0.02, one step per window, bounds ±50 % of nominal, and a warm-up of five
-    /// radial decay times `1/(ζω_n)` of the nominal model (at least 32 samples).
-    pub fn edge_default(fs_hz: f64, nominal: BearingParams, excitation: ImpactTrain) -> Self {
-        let decay_s = 1.0
-            / (nominal.damping_ratio_radial()
-                * 2.0
-                * math::PI
-                * nominal.natural_frequency_radial_hz());
-        let warm = 5.0 * decay_s * fs_hz;
-        let warmup_samples = if warm.is_finite() && warm < 65_536.0 {
-            (warm as usize).max(32)
-        } else {
-            65_536
-        };
+    /// 3 kHz and 48 kHz, as the trainer's twin uses), band ±35 % of `f_n` within
+    /// [0.02·fs, 0.38·fs], Gauss–Newton (λ = 10⁻³) with η = (0.5, 0.25) (the damping
+    /// features are noisier and damping moves slower), steps ≤ 0.1 in log,
+    /// δ = 0.02, one step per window, two halvings, bounds ±50 % of nominal, no
+    /// angular share (set `angular_share` and `angular_gain` for the sensor at hand).
+    pub fn edge_default(
+        fs_hz: f64,
+        nominal: BearingParams,
+        impact_amplitude_n: f64,
+        impact_sigma_s: f64,
+    ) -> Self {
         Self {
             fs_hz,
             nominal,
-            excitation,
+            impact_amplitude_n,
+            impact_sigma_s,
             angular_share: 0.0,
             angular_gain: 0.0,
             oversample: 4,
-            warmup_samples,
             band_half_width: 0.35,
             band_min_hz: 0.02 * fs_hz,
             band_max_hz: 0.38 * fs_hz,
             weights: [1.0, 1.0],
-            learning_rate: 0.5,
+            learning_rate: [0.5, 0.25],
             step_rule: StepRule::GaussNewton { levenberg: 1e-3 },
             max_log_step: 0.1,
-            isolated: false,
             fd_log_step: 0.02,
             steps_per_window: 1,
             max_backtracks: 2,
@@ -247,6 +267,8 @@ impl TrackerConfig {
     fn validate(&self) -> Result<()> {
         let v = [
             self.fs_hz,
+            self.impact_amplitude_n,
+            self.impact_sigma_s,
             self.angular_share,
             self.angular_gain,
             self.band_half_width,
@@ -254,7 +276,8 @@ impl TrackerConfig {
             self.band_max_hz,
             self.weights[0],
             self.weights[1],
-            self.learning_rate,
+            self.learning_rate[0],
+            self.learning_rate[1],
             self.max_log_step,
             self.fd_log_step,
             self.bounds[0],
@@ -266,6 +289,11 @@ impl TrackerConfig {
         self.nominal.validate()?;
         if self.fs_hz <= 0.0 {
             return Err(Error::InvalidParameter("sampling rate must be > 0"));
+        }
+        if self.impact_sigma_s <= 0.0 || self.impact_amplitude_n == 0.0 {
+            return Err(Error::InvalidParameter(
+                "impact width must be > 0 and amplitude non-zero",
+            ));
         }
         if self.oversample == 0 || self.oversample > MAX_OVERSAMPLE {
             return Err(Error::InvalidParameter("oversample must be in 1..=8"));
@@ -286,7 +314,7 @@ impl TrackerConfig {
                 "weights must be >= 0, not all zero",
             ));
         }
-        if self.learning_rate <= 0.0 || self.max_log_step <= 0.0 {
+        if self.learning_rate.iter().any(|&e| e <= 0.0) || self.max_log_step <= 0.0 {
             return Err(Error::InvalidParameter(
                 "learning rate and max step must be > 0",
             ));
@@ -309,19 +337,6 @@ impl TrackerConfig {
                 "bounds must satisfy 0 < lo <= 1 <= hi",
             ));
         }
-        if self.excitation.jitter != 0.0 {
-            return Err(Error::InvalidParameter(
-                "the model's impact train must be deterministic (jitter 0)",
-            ));
-        }
-        // ImpactTrain's own checks (finite, rate and width > 0, depth in [0, 1]).
-        let mut probe = [0.0f64; 1];
-        self.excitation.add_to(
-            TimeGrid { t0: 0.0, dt: 1.0 },
-            1.0,
-            &mut probe,
-            &mut Xoshiro128pp::seed_from_u64(0),
-        )?;
         Ok(())
     }
 }
@@ -329,12 +344,12 @@ impl TrackerConfig {
 /// Band features of one window (see the module docs).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BandFeatures {
-    /// Spectral centroid `f_c` in the band, Hz.
+    /// Tapered spectral centroid `f_c` in the band, Hz.
     pub centroid_hz: f64,
-    /// Spectral spread `s` about the centroid in the band, Hz.
+    /// Tapered spectral spread `s` about the centroid in the band, Hz.
     pub spread_hz: f64,
-    /// Share of the window's power (bins 1..N/2) inside the band: a quality figure
-    /// (near 1: the resonance dominates; low: noise or other content dominates).
+    /// Share of the window's power (bins 1..N/2) inside the band, untapered: a quality
+    /// figure (near 1: the resonance dominates; low: noise or other content does).
     pub band_share: f64,
 }
 
@@ -363,14 +378,14 @@ pub struct TrackStep {
     pub band_hz: [f64; 2],
     /// Steps accepted (of `steps_per_window`).
     pub accepted_steps: usize,
-    /// RK4 simulations of a window run for this update.
+    /// RK4 model runs made for this update.
     pub simulations: usize,
 }
 
 /// The on-edge parameter tracker for windows of `W` samples (power of two ≥ 64).
 ///
-/// Memory ≈ `16·W` bytes of spectrum and signal scratch plus ≈ 14 KiB of chunk
-/// buffers, all inline (no heap): ≈ 47 KiB for `W = 2048`.
+/// Memory: `16·W` bytes of spectrum and signal scratch plus ≈ 15 KiB of chunk
+/// buffers and taps, all inline (no heap): 47 888 bytes for `W = 2048`.
 #[derive(Debug, Clone)]
 pub struct Tracker<const W: usize> {
     cfg: TrackerConfig,
@@ -441,7 +456,7 @@ impl<const W: usize> Tracker<W> {
     /// Set Θ (clamped to the bounds).
     ///
     /// # Errors
-    /// [`Error::NonFinite`] or [`Error::InvalidParameter`] for a non-positive value.
+    /// [`Error::NonFinite`], or [`Error::InvalidParameter`] for a value ≤ 0.
     pub fn set_theta(&mut self, theta: Theta) -> Result<()> {
         let v = [theta.stiffness_radial, theta.damping_radial];
         if v.iter().any(|x| !x.is_finite()) {
@@ -478,7 +493,9 @@ impl<const W: usize> Tracker<W> {
         let lo = (f_n * (1.0 - beta)).max(self.cfg.band_min_hz);
         let hi = (f_n * (1.0 + beta)).min(self.cfg.band_max_hz);
         let df = self.cfg.fs_hz / W as f64;
-        if !(hi - lo >= MIN_BAND_BINS as f64 * df) {
+        // Written so that a NaN width fails too.
+        let enough = hi - lo >= MIN_BAND_BINS as f64 * df;
+        if !enough {
             return Err(Error::InvalidParameter(
                 "feature band holds fewer than 8 bins",
             ));
@@ -486,7 +503,8 @@ impl<const W: usize> Tracker<W> {
         Ok([lo, hi])
     }
 
-    /// Band features of a window `x` in `band` (Hz).
+    /// Band features of a measured window `x` in `band` (Hz): Hann power spectrum of
+    /// `x − mean(x)`.
     ///
     /// # Errors
     /// [`Error::NonFinite`] for a NaN/∞ sample, [`Error::Degenerate`] for a constant
@@ -512,7 +530,7 @@ impl<const W: usize> Tracker<W> {
         self.signal_features(band, Window::Hann)
     }
 
-    /// Band features of `self.signal` (mean already removed).
+    /// Band features of `self.signal`.
     fn signal_features(&mut self, band: [f64; 2], window: Window) -> Result<BandFeatures> {
         let half = W / 2 + 1;
         power_spectrum(
@@ -528,7 +546,6 @@ impl<const W: usize> Tracker<W> {
         for &p in self.power[1..half].iter() {
             all += f64::from(p);
         }
-        // Raised-cosine taper u over the band: u = ½ − ½·cos(2π(f − lo)/(hi − lo)).
         let taper = |k: usize| {
             let x = (k as f64 * df - band[0]) / (band[1] - band[0]);
             0.5 - 0.5 * math::cos(2.0 * math::PI * x)
@@ -565,60 +582,59 @@ impl<const W: usize> Tracker<W> {
         })
     }
 
-    /// The model's sensor window at `theta`: the nominal 2-DOF model with Θ, driven by
-    /// the configured train, RK4 at `M·fs` from rest, anti-aliased, warm-up dropped.
+    /// Output samples a model run at `p` covers: [`DECAY_TIMES`] decay times `2m/c` of
+    /// the slowest observed DOF after the pulse and the FIR delay, at most `W`.
+    fn run_len(&self, p: &BearingParams) -> usize {
+        let mut alpha = p.damping_radial / (2.0 * p.mass);
+        if self.cfg.angular_share != 0.0 && self.cfg.angular_gain != 0.0 {
+            alpha = alpha.min(p.damping_angular / (2.0 * p.mass));
+        }
+        let pulse_s = 2.0 * PULSE_LEAD_SIGMAS * self.cfg.impact_sigma_s;
+        let len = (DECAY_TIMES / alpha + pulse_s) * self.cfg.fs_hz
+            + (self.n_taps / self.cfg.oversample) as f64
+            + 2.0;
+        if len.is_finite() && len < W as f64 {
+            len as usize
+        } else {
+            W
+        }
+    }
+
+    /// The model's sensor signal at `theta`: the response of the nominal 2-DOF model
+    /// with Θ to one eq. 18 impact, RK4 at `M·fs` from rest, anti-aliased, decimated,
+    /// zero-padded to `W` (the impact at sample ≈ 0). Its rectangular-window power
+    /// spectrum is what the measured Hann spectrum is compared with.
     ///
     /// # Errors
-    /// [`Error::Diverged`] (global RK4 step) when the state or the output stops being
-    /// finite; the model's parameter errors.
+    /// [`Error::Diverged`] (RK4 step) when the state or the output stops being finite;
+    /// the model's parameter errors.
     pub fn simulate(&mut self, theta: &Theta) -> Result<&[f32; W]> {
         self.simulate_into_signal(theta)?;
         Ok(&self.signal)
     }
 
-    fn simulate_into_signal(&mut self, theta: &Theta) -> Result<Window> {
+    fn simulate_into_signal(&mut self, theta: &Theta) -> Result<()> {
         let params = theta.apply(&self.cfg.nominal);
         let model = Bearing2Dof::<f64>::new(&params)?;
         let os = self.cfg.oversample;
         let h = 1.0 / (self.cfg.fs_hz * os as f64);
-        let (train, warm, total, window) = if self.cfg.isolated {
-            let mut alpha = params.damping_radial / (2.0 * params.mass);
-            if self.cfg.angular_share != 0.0 && self.cfg.angular_gain != 0.0 {
-                alpha = alpha.min(params.damping_angular / (2.0 * params.mass));
-            }
-            let sigma = self.cfg.excitation.sigma_s;
-            let len =
-                (8.0 / alpha + 16.0 * sigma) * self.cfg.fs_hz + (self.n_taps / os) as f64 + 2.0;
-            let total = if len.is_finite() && len < W as f64 {
-                len as usize
-            } else {
-                W
-            };
-            let train = ImpactTrain {
-                first_impact_s: 8.0 * sigma,
-                ..ImpactTrain::periodic(
-                    self.cfg.excitation.amplitude,
-                    0.5 * self.cfg.fs_hz / W as f64,
-                    sigma,
-                )
-            };
-            (train, 0, total, Window::Rectangular)
-        } else {
-            (
-                self.cfg.excitation,
-                self.cfg.warmup_samples,
-                self.cfg.warmup_samples + W,
-                Window::Hann,
+        let total = self.run_len(&params);
+        // One impact: a train whose period (2W samples) is longer than the run.
+        let pulse = ImpactTrain {
+            first_impact_s: PULSE_LEAD_SIGMAS * self.cfg.impact_sigma_s,
+            ..ImpactTrain::periodic(
+                self.cfg.impact_amplitude_n,
+                0.5 * self.cfg.fs_hz / W as f64,
+                self.cfg.impact_sigma_s,
             )
         };
+        // Never drawn from: the pulse has no jitter.
+        let mut rng = Xoshiro128pp::seed_from_u64(0);
         let l = self.n_taps;
         let taps = &self.taps[..l];
         let (share, gain) = (self.cfg.angular_share, self.cfg.angular_gain);
-        // Unused: the train is deterministic (validated), so no draw is ever made.
-        let mut rng = Xoshiro128pp::seed_from_u64(0);
         let mut state = State::REST;
         self.line[..l - 1].fill(0.0);
-        let mut mean = 0.0f64;
         let (mut out, mut step0) = (0usize, 0usize);
         while out < total {
             let n_out = CHUNK_SAMPLES.min(total - out);
@@ -629,7 +645,7 @@ impl<const W: usize> Tracker<W> {
                 t0: step0 as f64 * h,
                 dt: 0.5 * h,
             };
-            train.add_to(grid, 1.0, fr, &mut rng)?;
+            pulse.add_to(grid, 1.0, fr, &mut rng)?;
             let ft = &mut self.force_t[..2 * n + 1];
             for (t, r) in ft.iter_mut().zip(fr.iter()) {
                 *t = share * r;
@@ -662,30 +678,19 @@ impl<const W: usize> Tracker<W> {
                         step: step0 + j * os,
                     });
                 }
-                let k = out + j;
-                if k >= warm {
-                    self.signal[k - warm] = acc;
-                    mean += f64::from(acc);
-                }
+                self.signal[out + j] = acc;
             }
             self.line.copy_within(n..n + l - 1, 0);
             out += n_out;
             step0 += n;
         }
-        if window == Window::Rectangular {
-            self.signal[total - warm..].fill(0.0);
-            return Ok(window);
-        }
-        let mean = (mean / W as f64) as f32;
-        for s in self.signal.iter_mut() {
-            *s -= mean;
-        }
-        Ok(window)
+        self.signal[total..].fill(0.0);
+        Ok(())
     }
 
     fn simulated_features(&mut self, phi: [f64; 2], band: [f64; 2]) -> Result<BandFeatures> {
-        let window = self.simulate_into_signal(&Theta::from_log(phi))?;
-        self.signal_features(band, window)
+        self.simulate_into_signal(&Theta::from_log(phi))?;
+        self.signal_features(band, Window::Rectangular)
     }
 
     fn loss(&self, zm: [f64; 2], zs: [f64; 2]) -> f64 {
@@ -739,7 +744,7 @@ impl<const W: usize> Tracker<W> {
             let eta = self.cfg.learning_rate;
             let mut step = match self.cfg.step_rule {
                 // −η∇L = 2η·JᵀW r.
-                StepRule::Gradient => [2.0 * eta * jtr[0], 2.0 * eta * jtr[1]],
+                StepRule::Gradient => [2.0 * eta[0] * jtr[0], 2.0 * eta[1] * jtr[1]],
                 StepRule::GaussNewton { levenberg } => {
                     // (2JᵀWJ + λ diag)⁻¹ · 2JᵀW r: the factors 2 cancel.
                     let a = jtj[0][0] * (1.0 + levenberg);
@@ -751,8 +756,8 @@ impl<const W: usize> Tracker<W> {
                         return Err(Error::Degenerate);
                     }
                     [
-                        eta * (d * jtr[0] - b * jtr[1]) / det,
-                        eta * (a * jtr[1] - c * jtr[0]) / det,
+                        eta[0] * (d * jtr[0] - b * jtr[1]) / det,
+                        eta[1] * (a * jtr[1] - c * jtr[0]) / det,
                     ]
                 }
             };
@@ -787,7 +792,9 @@ impl<const W: usize> Tracker<W> {
             }
             accepted += 1;
         }
-        self.theta = Theta::from_log(phi);
+        if accepted > 0 {
+            self.theta = Theta::from_log(phi);
+        }
         Ok(TrackStep {
             theta_before,
             theta: self.theta,
@@ -825,24 +832,18 @@ mod tests {
     }
 
     fn config() -> TrackerConfig {
-        let mut cfg = TrackerConfig::edge_default(
-            FS,
-            nominal(),
-            ImpactTrain {
-                first_impact_s: 0.5 / RATE_HZ,
-                ..ImpactTrain::periodic(AMPLITUDE_N, RATE_HZ, SIGMA_S)
-            },
-        );
+        let mut cfg = TrackerConfig::edge_default(FS, nominal(), AMPLITUDE_N, SIGMA_S);
         cfg.angular_share = ANGULAR_SHARE;
         cfg.angular_gain = ANGULAR_GAIN;
         cfg
     }
 
-    /// A continuous "measured" record, independent of the tracker's own model: the
-    /// 2-DOF model at 8× oversampling with a jittered (`jitter`·T), randomly phased impact
-    /// train rendered in one piece, Θ switched per window (`thetas[w]`), the state
-    /// carried across windows, a 321-tap anti-alias FIR at 5 kHz, decimation to fs,
-    /// then white noise of `noise_rel` × the window's RMS. One warm-up window dropped.
+    /// A continuous "measured" record, independent of the tracker's model: the 2-DOF
+    /// model at 8× oversampling driven by an eq. 18 train at BPFI with slip
+    /// (`jitter`·T) and a random first impact, rendered in one piece; Θ switched per
+    /// window (`thetas[w]`) with the state carried across windows; a 321-tap
+    /// anti-alias FIR at 5 kHz, decimation to fs, then white noise of `noise_rel` ×
+    /// the window's RMS. One warm-up window is dropped.
     fn measured_record(
         thetas: &[Theta],
         noise_rel: f64,
@@ -881,15 +882,9 @@ mod tests {
             let theta = thetas[w.saturating_sub(1)];
             let model = Bearing2Dof::<f64>::new(&theta.apply(&nominal())).unwrap();
             let s0 = w * steps_per_win;
+            let span = 2 * s0..2 * (s0 + steps_per_win) + 1;
             state = model
-                .simulate(
-                    state,
-                    h,
-                    &fr[2 * s0..2 * (s0 + steps_per_win) + 1],
-                    &ft[2 * s0..2 * (s0 + steps_per_win) + 1],
-                    &mut ar,
-                    &mut at,
-                )
+                .simulate(state, h, &fr[span.clone()], &ft[span], &mut ar, &mut at)
                 .unwrap();
             for i in 0..steps_per_win {
                 y[s0 + i] = (ar[i] + ANGULAR_GAIN * at[i]) as f32;
@@ -903,10 +898,9 @@ mod tests {
             .map(|w| {
                 let mut x = [0.0f32; WIN];
                 x.copy_from_slice(&dec[w * WIN..(w + 1) * WIN]);
-                let rms =
-                    (x.iter().map(|v| f64::from(*v).powi(2)).sum::<f64>() / WIN as f64).sqrt();
+                let ms = x.iter().map(|v| f64::from(*v).powi(2)).sum::<f64>() / WIN as f64;
                 for v in x.iter_mut() {
-                    *v += (noise_rel * rms * rng.normal()) as f32;
+                    *v += (noise_rel * math::sqrt(ms) * rng.normal()) as f32;
                 }
                 x
             })
@@ -917,9 +911,9 @@ mod tests {
         (a / b - 1.0).abs()
     }
 
-    /// Identifiability: windows measured at a known Θ* (noise 10 % of RMS, 1 % jitter,
-    /// random phase), tracker started 15 % off in both k and c: within 2 % in both
-    /// after at most 20 updates, and it stays there.
+    /// Identifiability: windows measured at a known Θ* (noise 10 % of RMS, 1 % slip,
+    /// random phase), the tracker started 15 % off in k and c (both signs): k and c
+    /// both within 2 % after at most 20 updates and staying there through update 30.
     #[test]
     fn tracking_converges_from_15_percent_off() {
         let nom = Theta::of(&nominal());
@@ -939,35 +933,39 @@ mod tests {
             for (i, x) in windows.iter().enumerate() {
                 let s = tr.update(x).unwrap();
                 let (ek, ec) = (
-                    rel(s.theta.stiffness_radial, truth.stiffness_radial),
-                    rel(s.theta.damping_radial, truth.damping_radial),
+                    s.theta.stiffness_radial / truth.stiffness_radial - 1.0,
+                    s.theta.damping_radial / truth.damping_radial - 1.0,
                 );
                 println!(
-                    "start ({k_off}, {c_off}) update {:2}: k err {:6.3} %, c err {:6.3} %, \
-                     loss {:.2e} -> {:.2e}, sims {}",
+                    "start ({k_off}, {c_off}) update {:2}: k err {:+6.3} %, c err {:+6.3} %, \
+                     loss {:.2e} -> {:.2e}, runs {}",
                     i + 1,
-                    100.0 * (s.theta.stiffness_radial / truth.stiffness_radial - 1.0),
-                    100.0 * (s.theta.damping_radial / truth.damping_radial - 1.0),
+                    100.0 * ek,
+                    100.0 * ec,
                     s.loss_before,
                     s.loss_after,
                     s.simulations
                 );
                 assert!(s.loss_after <= s.loss_before);
-                if ek <= 0.02 && ec <= 0.02 {
+                if ek.abs() <= 0.02 && ec.abs() <= 0.02 {
                     first_within.get_or_insert(i + 1);
                 } else {
-                    println!("OUT");
+                    assert!(
+                        first_within.is_none(),
+                        "left the 2 % band at update {}",
+                        i + 1
+                    );
                 }
             }
             let n = first_within.expect("never within 2 %");
-            println!("start ({k_off}, {c_off}): within 2 % from update {n}");
+            println!("start ({k_off}, {c_off}): k and c within 2 % from update {n} on");
             assert!(n <= 20, "took {n} updates");
         }
     }
 
     /// The issue's test: the true radial stiffness drifts linearly by −10 % over 100
-    /// windows (damping constant), noise 10 % of RMS, 1 % jitter; tracked from
-    /// nominal, every window's |k̂ − k|/k ≤ 5 % (all 100, no warm-up exclusion).
+    /// windows (damping constant), noise 10 % of RMS, 1 % slip; tracked from nominal,
+    /// every window's |k̂ − k|/k ≤ 5 % (all 100 windows, no warm-up excluded).
     #[test]
     fn tracking_follows_a_10_percent_stiffness_drift() {
         let nom = Theta::of(&nominal());
@@ -980,12 +978,12 @@ mod tests {
         let windows = measured_record(&thetas, 0.1, 0.01, 11);
         let mut tr = Tracker::<WIN>::new(config()).unwrap();
         let (mut max_err, mut max_err_after_10, mut max_c_err) = (0.0f64, 0.0f64, 0.0f64);
-        let mut sims = 0usize;
-        let start = std::time::Instant::now();
+        let mut runs = 0usize;
         let mut last = 0.0;
+        let start = std::time::Instant::now();
         for (w, (x, truth)) in windows.iter().zip(&thetas).enumerate() {
             let s = tr.update(x).unwrap();
-            sims += s.simulations;
+            runs += s.simulations;
             let e = rel(s.theta.stiffness_radial, truth.stiffness_radial);
             max_err = max_err.max(e);
             if w >= 10 {
@@ -995,13 +993,13 @@ mod tests {
             last = e;
             if w % 10 == 9 {
                 println!(
-                    "window {:3}: k true {:.4e} tracked {:.4e} (err {:.2} %), c err {:.2} %, \
+                    "window {:3}: k true {:.4e} tracked {:.4e} (err {:.2} %), c err {:+.2} %, \
                      band share {:.2}",
                     w + 1,
                     truth.stiffness_radial,
                     s.theta.stiffness_radial,
                     100.0 * e,
-                    100.0 * rel(s.theta.damping_radial, truth.damping_radial),
+                    100.0 * (s.theta.damping_radial / truth.damping_radial - 1.0),
                     s.measured.band_share
                 );
             }
@@ -1009,13 +1007,13 @@ mod tests {
         let per_update = start.elapsed().as_secs_f64() / windows.len() as f64;
         println!(
             "drift −10 %: max |k err| {:.2} % (after window 10: {:.2} %), final {:.2} %, \
-             max |c err| {:.2} %; {:.2} ms per update ({:.1} RK4 windows per update)",
+             max |c err| {:.2} %; {:.3} ms per update, {:.1} model runs per update",
             100.0 * max_err,
             100.0 * max_err_after_10,
             100.0 * last,
             100.0 * max_c_err,
             1e3 * per_update,
-            sims as f64 / windows.len() as f64
+            runs as f64 / windows.len() as f64
         );
         assert!(max_err <= 0.05, "max stiffness error {max_err}");
     }
@@ -1027,7 +1025,7 @@ mod tests {
         let windows = measured_record(&[truth; 10], 0.1, 0.01, 3);
         let mut cfg = config();
         cfg.step_rule = StepRule::Gradient;
-        cfg.learning_rate = 1.0;
+        cfg.learning_rate = [1.0, 1.0];
         let mut tr = Tracker::<WIN>::new(cfg).unwrap();
         tr.set_theta(Theta {
             stiffness_radial: 1.15 * truth.stiffness_radial,
@@ -1046,72 +1044,16 @@ mod tests {
         assert!(e < 0.075, "k error {e}");
     }
 
-    #[test]
-    fn tracking_diag_feature_noise() {
-        let nom = Theta::of(&nominal());
-        for (kf, cf, noise, jit) in [
-            (1.0, 1.0, 0.0, 0.01),
-            (0.95, 1.0, 0.0, 0.01),
-            (1.0, 1.0, 0.0, 0.0),
-            (0.95, 1.0, 0.0, 0.0),
-            (1.0, 1.0, 0.0, 0.02),
-            (0.95, 1.0, 0.0, 0.02),
-            (0.95, 1.0, 0.3, 0.02),
-        ] {
-            let truth = Theta {
-                stiffness_radial: kf * nom.stiffness_radial,
-                damping_radial: cf * nom.damping_radial,
-            };
-            let w = measured_record(&[truth; 60], noise, jit, 21);
-            println!("truth ({kf}, {cf}) noise {noise} jitter {jit}");
-            for beta in [0.35] {
-                let mut cfg = config();
-                cfg.band_half_width = beta;
-                cfg.isolated = std::env::var("ISO").is_ok();
-                let mut tr = Tracker::<WIN>::new(cfg).unwrap();
-                let band = tr.band(&truth).unwrap();
-                let f0 = tr.simulated_features(truth.log(), band).unwrap();
-                let mut jac = [[0.0; 2]; 2];
-                for j in 0..2 {
-                    let mut p = truth.log();
-                    p[j] += 0.02;
-                    let f = tr.simulated_features(p, band).unwrap();
-                    jac[0][j] = math::ln(f.centroid_hz / f0.centroid_hz) / 0.02;
-                    jac[1][j] = math::ln(f.spread_hz / f0.spread_hz) / 0.02;
-                }
-                let det = jac[0][0] * jac[1][1] - jac[0][1] * jac[1][0];
-                let (mut m, mut m2) = ([0.0; 2], [0.0; 2]);
-                for x in &w {
-                    let f = tr.features(x, band).unwrap();
-                    let r = [
-                        math::ln(f.centroid_hz / f0.centroid_hz),
-                        math::ln(f.spread_hz / f0.spread_hz),
-                    ];
-                    let d = [
-                        (jac[1][1] * r[0] - jac[0][1] * r[1]) / det,
-                        (jac[0][0] * r[1] - jac[1][0] * r[0]) / det,
-                    ];
-                    for i in 0..2 {
-                        m[i] += d[i];
-                        m2[i] += d[i] * d[i];
-                    }
-                }
-                let n = w.len() as f64;
-                println!("beta {beta}: J {jac:?}; per-window ln k bias {:.4} std {:.4}; ln c bias {:.4} std {:.4}",
-                m[0] / n, (m2[0] / n - (m[0] / n).powi(2)).sqrt(), m[1] / n, (m2[1] / n - (m[1] / n).powi(2)).sqrt());
-            }
-        }
-    }
-
-    /// NaN → NonFinite, constant → Degenerate (an error, not a no-op); Θ unchanged.
+    /// NaN/∞ → NonFinite, constant or all-zero → Degenerate (an error, not a no-op);
+    /// Θ unchanged by each.
     #[test]
     fn tracking_rejects_bad_windows_and_keeps_theta() {
         let mut tr = Tracker::<WIN>::new(config()).unwrap();
-        let start = Theta {
+        tr.set_theta(Theta {
             stiffness_radial: 1.1 * nominal().stiffness_radial,
             damping_radial: nominal().damping_radial,
-        };
-        tr.set_theta(start).unwrap();
+        })
+        .unwrap();
         let start = tr.theta();
         let mut x = [0.0f32; WIN];
         assert_eq!(tr.update(&x).err(), Some(Error::Degenerate));
@@ -1127,12 +1069,12 @@ mod tests {
         assert_eq!(tr.theta(), start);
     }
 
-    /// A model that blows up (a huge impact on the hardening cubic term, or a step
-    /// beyond RK4's stability limit) is the simulator's error; Θ unchanged.
+    /// A model that blows up (a huge impact on the hardening cubic term) is the
+    /// simulator's error; Θ unchanged.
     #[test]
     fn tracking_diverging_model_is_an_error() {
         let mut cfg = config();
-        cfg.excitation.amplitude = 1e12;
+        cfg.impact_amplitude_n = 1e12;
         let mut tr = Tracker::<WIN>::new(cfg).unwrap();
         let before = tr.theta();
         let mut x = [0.0f32; WIN];
@@ -1147,7 +1089,7 @@ mod tests {
     #[test]
     fn tracking_rejects_bad_configuration() {
         let mut cfg = config();
-        cfg.excitation.jitter = 0.01;
+        cfg.impact_sigma_s = 0.0;
         assert!(Tracker::<WIN>::new(cfg).is_err());
         let mut cfg = config();
         cfg.oversample = 9;
@@ -1182,31 +1124,95 @@ mod tests {
             ) < 1e-12
         );
         assert!(rel(tr.theta().damping_radial, 0.5 * nominal().damping_radial) < 1e-12);
+        tr.reset();
+        assert_eq!(tr.theta(), Theta::of(&nominal()));
     }
 
-    /// The chunked, oversampled, anti-aliased model window matches a one-piece run of
-    /// the same model at a high rate (its resonance band), and the features of the
-    /// model's own window at Θ give zero loss (consistency of the two paths).
+    /// The chunked model run equals a one-piece run of the same model (same pulse,
+    /// full buffers, the same causal FIR at the kept instants), has decayed by its end,
+    /// and covers far less than a window.
     #[test]
-    fn tracking_model_window_is_consistent() {
+    fn tracking_chunked_run_matches_one_piece() {
+        let cfg = config();
+        let mut tr = Tracker::<WIN>::new(cfg).unwrap();
+        let theta = tr.theta();
+        let total = tr.run_len(&nominal());
+        let y = *tr.simulate(&theta).unwrap();
+        assert!(total < WIN / 4, "run of {total} samples");
+        assert!(y[total..].iter().all(|&v| v == 0.0));
+
+        let m = cfg.oversample;
+        let n = total * m;
+        let h = 1.0 / (FS * m as f64);
+        let pulse = ImpactTrain {
+            first_impact_s: 8.0 * SIGMA_S,
+            ..ImpactTrain::periodic(AMPLITUDE_N, 0.5 * FS / WIN as f64, SIGMA_S)
+        };
+        let mut fr = vec![0.0f64; 2 * n + 1];
+        pulse
+            .add_to(
+                TimeGrid {
+                    t0: 0.0,
+                    dt: 0.5 * h,
+                },
+                1.0,
+                &mut fr,
+                &mut Xoshiro128pp::seed_from_u64(0),
+            )
+            .unwrap();
+        let ft: Vec<f64> = fr.iter().map(|f| ANGULAR_SHARE * f).collect();
+        let (mut ar, mut at) = (vec![0.0f64; n], vec![0.0f64; n]);
+        Bearing2Dof::<f64>::new(&nominal())
+            .unwrap()
+            .simulate(State::REST, h, &fr, &ft, &mut ar, &mut at)
+            .unwrap();
+        let x: Vec<f32> = (0..n)
+            .map(|i| (ar[i] + ANGULAR_GAIN * at[i]) as f32)
+            .collect();
+        let taps = &tr.taps[..tr.n_taps];
+        let peak = y.iter().fold(0.0f32, |a, v| a.max(v.abs()));
+        for k in 0..total {
+            let i = k * m;
+            let want: f32 = (0..taps.len())
+                .filter(|&t| t <= i)
+                .map(|t| taps[t] * x[i - t])
+                .sum();
+            assert!(
+                (y[k] - want).abs() <= 1e-5 * peak,
+                "k {k}: {} vs {want}",
+                y[k]
+            );
+        }
+        let tail = y[total - 16..total]
+            .iter()
+            .fold(0.0f32, |a, v| a.max(v.abs()));
+        assert!(tail < 2e-3 * peak, "tail {tail} of peak {peak}");
+    }
+
+    /// The model's one-impact features agree with those of the independent measured
+    /// chain (a train with 2 % slip, no noise, 8x oversampling, another anti-alias
+    /// filter), averaged over 10 windows: the comb of the train drops out.
+    #[test]
+    fn tracking_model_features_match_a_slipping_train() {
         let mut tr = Tracker::<WIN>::new(config()).unwrap();
         let theta = tr.theta();
         let band = tr.band(&theta).unwrap();
-        let y = *tr.simulate(&theta).unwrap();
-        let f_model = tr.features(&y, band).unwrap();
-        let f_again = tr.simulated_features(theta.log(), band).unwrap();
-        assert!(rel(f_model.centroid_hz, f_again.centroid_hz) < 1e-6);
-        // Near 3 kHz, within the band.
-        assert!(
-            f_model.centroid_hz > band[0] && f_model.centroid_hz < band[1],
-            "{f_model:?}"
+        let model = tr.simulated_features(theta.log(), band).unwrap();
+        let windows = measured_record(&[theta; 10], 0.0, 0.02, 5);
+        let (mut fc, mut s) = (0.0, 0.0);
+        for x in &windows {
+            let f = tr.features(x, band).unwrap();
+            fc += math::ln(f.centroid_hz / model.centroid_hz) / windows.len() as f64;
+            s += math::ln(f.spread_hz / model.spread_hz) / windows.len() as f64;
+        }
+        println!(
+            "model {model:?}; measured/model − 1: centroid {:+.4} %, spread {:+.3} %",
+            100.0 * fc,
+            100.0 * s
         );
-        // Same features from the independent measured chain without noise or jitter
-        // (different phase, 8x oversampling, different anti-alias filter): within 0.5 %.
-        let meas = measured_record(&[theta], 0.0, 0.0, 5);
-        let f_meas = tr.features(&meas[0], band).unwrap();
-        println!("model {f_model:?}\nmeasured {f_meas:?}");
-        assert!(rel(f_model.centroid_hz, f_meas.centroid_hz) < 0.005);
-        assert!(rel(f_model.spread_hz, f_meas.spread_hz) < 0.02);
+        assert!(
+            fc.abs() < 5e-4 && s.abs() < 5e-3,
+            "centroid {fc}, spread {s}"
+        );
     }
 }

@@ -12,6 +12,7 @@ pub mod featurize;
 pub mod metrics;
 pub mod model;
 pub mod plot;
+pub mod predict;
 pub mod sim;
 pub mod training;
 pub mod twin;

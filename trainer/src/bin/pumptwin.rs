@@ -12,6 +12,7 @@ use pumptwin_trainer::data::preprocess::{PreprocessConfig, MODEL_FS_HZ};
 use pumptwin_trainer::data::summary::summarize;
 use pumptwin_trainer::data::windows::{Protocol, WindowConfig, DEFAULT_HOP, DEFAULT_WINDOW_LEN};
 use pumptwin_trainer::export::{run_export, ExportArgs};
+use pumptwin_trainer::predict::{run_predict, PredictArgs};
 use pumptwin_trainer::training::{run_eval, run_train, EvalArgs, TrainArgs};
 use std::io::Write;
 
@@ -47,6 +48,8 @@ enum Command {
     Export(ExportArgs),
     /// Turn recordings into a candump log packed as an edge sensor map says.
     CanEncode(CanEncodeArgs),
+    /// Diagnose one recording: per-window class and probabilities, majority class.
+    Predict(PredictArgs),
 }
 
 /// `pumptwin data …`
@@ -105,6 +108,7 @@ fn main() -> anyhow::Result<()> {
         Command::Eval(args) => run_eval(args),
         Command::Export(args) => run_export(args),
         Command::CanEncode(args) => run_can_encode(args),
+        Command::Predict(args) => run_predict(args),
     };
     match result {
         Err(e) if is_broken_pipe(&e) => Ok(()),

@@ -1,0 +1,226 @@
+//! `pumptwin predict`: diagnose one recording with any model the project makes (the
+//! int8 model file through the core, or a burn `model.bpk`).
+//!
+//! ```text
+//! FILE (.mat / .csv) → channels DE, FE, BA by name (.mat variables by channel suffix)
+//!   → model rate (12 kHz): integer-ratio rates anti-aliased and decimated, the common
+//!     5 kHz band limit (data::preprocess, as in training)
+//!   → windows 2048 / hop 1024 → core features; a channel the file lacks is masked
+//!   → the model's normalization → dynamic graphs (core, eqs. 1–3) → model
+//!   → per-window class and probabilities, the record's majority class
+//! ```
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use burn::module::Module;
+use burn::tensor::activation::softmax;
+use burn::tensor::Device;
+use pumptwin_core::dsstgat::{probabilities_into, Output};
+use pumptwin_core::graph::GraphConfig;
+use serde::Serialize;
+
+use crate::cli::{LoadedRecord, RecordArgs};
+use crate::dataset::{Dataset, NODES, N_INDICATORS, N_NODES};
+use crate::export::{is_model_file, load_model_file, ARCH_INT8};
+use crate::featurize::{feature_config, window_features, window_graphs, MaskCounts, WINDOW};
+use crate::training::{load_trained_config, Batch, ARCH};
+
+/// Samples between window starts.
+pub const HOP: usize = WINDOW / 2;
+
+/// `pumptwin predict`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct PredictArgs {
+    /// The recording.
+    #[command(flatten)]
+    pub record: RecordArgs,
+    /// The model: an int8 model file (`.ptm`) or a burn `model.bpk` (with its
+    /// `config.json` and `normalization.json` beside it).
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Write the JSON report here (default: standard output).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// One window's diagnosis.
+#[derive(Debug, Clone, Serialize)]
+pub struct WindowPrediction {
+    /// Window start in the recording at the model rate, s.
+    pub start_s: f64,
+    /// Predicted class.
+    pub class: String,
+    /// Class probabilities, in the model's class order.
+    pub probabilities: BTreeMap<String, f32>,
+    /// Nodes masked in this window.
+    pub masked_nodes: Vec<String>,
+}
+
+/// The report of `predict`.
+#[derive(Debug, Clone, Serialize)]
+pub struct Prediction {
+    /// The recording.
+    pub input: String,
+    /// The model file.
+    pub model: String,
+    /// `dsstgat-int8` or `dsstgat`.
+    pub arch: String,
+    /// The recording's sampling rate, Hz.
+    pub fs_hz_input: f32,
+    /// The model's rate, Hz.
+    pub fs_hz_model: f32,
+    /// Whether the recording was resampled (anti-aliased and decimated).
+    pub resampled: bool,
+    /// Model sensors the recording does not have (masked in every window).
+    pub missing_nodes: Vec<String>,
+    /// Per window.
+    pub windows: Vec<WindowPrediction>,
+    /// The most frequent class over the windows.
+    pub majority_class: String,
+    /// Windows per class.
+    pub class_counts: BTreeMap<String, usize>,
+}
+
+/// Run `pumptwin predict`.
+pub fn run_predict(args: &PredictArgs) -> Result<()> {
+    let LoadedRecord {
+        raw,
+        rec,
+        rpm,
+        bearing,
+    } = args.record.load()?;
+    let cfg = feature_config(rec.fs_hz, rpm / 60.0, bearing.orders());
+    let starts: Vec<usize> = (0..)
+        .map(|k| k * HOP)
+        .take_while(|s| s + WINDOW <= rec.len())
+        .collect();
+    anyhow::ensure!(
+        !starts.is_empty(),
+        "{}: {} samples at {} Hz is shorter than one window ({WINDOW})",
+        args.record.input.display(),
+        rec.len(),
+        rec.fs_hz
+    );
+    let mut counts = MaskCounts::default();
+    let wf = window_features(&rec, &NODES, &cfg, &starts, &mut counts);
+    let missing: Vec<String> = NODES
+        .iter()
+        .filter(|n| rec.channel(n).is_none())
+        .map(|n| (*n).to_string())
+        .collect();
+    // Model-specific normalization, graph and forward.
+    let int8 = is_model_file(&args.model);
+    let (classes, norm, graph) = if int8 {
+        let m = load_model_file(&args.model)?;
+        let (norm, _) = m.norms()?;
+        (m.classes(), norm, m.file.graph_config::<N_NODES>()?)
+    } else {
+        let (cfg, norms) = load_trained_config(&args.model)?;
+        let (norm, _) = norms.context("no normalization.json beside the burn model")?;
+        (cfg.classes.clone(), norm, GraphConfig::<N_NODES>::uniform())
+    };
+    let mut ds = Dataset::default();
+    for w in &wf {
+        let (x, a) = window_graphs(w, &norm, &graph)
+            .map_err(|e| anyhow::anyhow!("window at sample {}: {e}", w.start))?;
+        ds.push(&x, &a, &w.mask.0, &[0.0; N_INDICATORS], 0, 0);
+    }
+    let probs: Vec<Vec<f32>> = if int8 {
+        let m = load_model_file(&args.model)?;
+        let outs: Vec<Output<16, 8>> = crate::export::int8_outputs(&m.model, &ds)?;
+        let c = m.model.classes();
+        outs.iter()
+            .map(|o| {
+                let mut p = vec![0.0f32; c];
+                probabilities_into(&o.logits[..c], m.model.logit_scale(), &mut p);
+                p
+            })
+            .collect()
+    } else {
+        let (tcfg, _) = load_trained_config(&args.model)?;
+        let device = Device::flex();
+        let model = tcfg
+            .model_config(classes.len())
+            .init(&device)
+            .try_load_file(&args.model)
+            .with_context(|| format!("cannot load {}", args.model.display()))?;
+        let idx: Vec<usize> = (0..ds.len()).collect();
+        let mut out = Vec::with_capacity(ds.len());
+        for chunk in idx.chunks(256) {
+            let b = Batch::new(&ds, chunk, &device);
+            let p = softmax(model.forward(b.x, b.adj, b.mask).logits, 1);
+            let v = p
+                .into_data()
+                .try_into_vec::<f32>()
+                .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+            out.extend(v.chunks(classes.len()).map(<[f32]>::to_vec));
+        }
+        out
+    };
+    let mut windows = Vec::with_capacity(wf.len());
+    let mut class_counts: BTreeMap<String, usize> = BTreeMap::new();
+    for (w, p) in wf.iter().zip(&probs) {
+        let best = (0..p.len()).fold(0, |b, c| if p[c] > p[b] { c } else { b });
+        let class = classes.get(best).cloned().unwrap_or_default();
+        *class_counts.entry(class.clone()).or_default() += 1;
+        windows.push(WindowPrediction {
+            start_s: w.start as f64 / f64::from(rec.fs_hz),
+            class,
+            probabilities: classes.iter().cloned().zip(p.iter().copied()).collect(),
+            masked_nodes: NODES
+                .iter()
+                .zip(w.mask.0)
+                .filter(|(_, m)| !m)
+                .map(|(n, _)| (*n).to_string())
+                .collect(),
+        });
+    }
+    let majority_class = class_counts
+        .iter()
+        .max_by_key(|(_, n)| **n)
+        .map(|(c, _)| c.clone())
+        .unwrap_or_default();
+    let report = Prediction {
+        input: args.record.input.display().to_string(),
+        model: args.model.display().to_string(),
+        arch: if int8 { ARCH_INT8 } else { ARCH }.to_string(),
+        fs_hz_input: raw.fs_hz,
+        fs_hz_model: rec.fs_hz,
+        resampled: (raw.fs_hz - rec.fs_hz).abs() > 1e-3,
+        missing_nodes: missing,
+        windows,
+        majority_class,
+        class_counts,
+    };
+    let text = serde_json::to_string_pretty(&report)? + "\n";
+    match &args.out {
+        Some(path) => std::fs::write(path, &text)
+            .with_context(|| format!("cannot write {}", path.display()))?,
+        None => {
+            use std::io::Write;
+            std::io::stdout().lock().write_all(text.as_bytes())?;
+        }
+    }
+    eprintln!(
+        "{}: {} windows at {} Hz{}; majority class {} ({} of {}){}",
+        report.input,
+        report.windows.len(),
+        report.fs_hz_model,
+        if report.resampled {
+            format!(" (resampled from {} Hz)", report.fs_hz_input)
+        } else {
+            String::new()
+        },
+        report.majority_class,
+        report.class_counts.get(&report.majority_class).unwrap_or(&0),
+        report.windows.len(),
+        if report.missing_nodes.is_empty() {
+            String::new()
+        } else {
+            format!("; nodes {:?} not in the recording: masked", report.missing_nodes)
+        }
+    );
+    Ok(())
+}
