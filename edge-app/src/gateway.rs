@@ -210,6 +210,8 @@ impl<'d> Gateway<'d> {
                 out.write_all(b"\n")?;
                 out.flush()?;
                 self.latency.record(t_frame.elapsed());
+                // Θ tracking runs after the line is out: it never delays a diagnosis.
+                self.pipeline.track_pending();
                 if let Some(p) = self.publisher.as_mut() {
                     if let Err(e) = p(&window, diagnosis.as_ref()) {
                         self.publish_failures += 1;

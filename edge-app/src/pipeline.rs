@@ -75,6 +75,8 @@ use pumptwin_core::features::{
     FEATURE_NAMES,
 };
 use pumptwin_core::fir::FirLowpass;
+use pumptwin_core::simulator::BearingParams;
+use pumptwin_core::tracking::{Tracker, TrackerConfig};
 use serde::Serialize;
 
 /// Samples per window.
@@ -262,6 +264,36 @@ pub enum ChannelOutcome {
     Failed(pumptwin_core::Error),
 }
 
+/// Impact force of the tracker's model (cancels in its ratio features), N.
+pub const TRACK_IMPACT_N: f64 = 50.0;
+/// Impact width σ of the tracker's model, s.
+pub const TRACK_IMPACT_SIGMA_S: f64 = 2.0e-5;
+
+/// What the on-edge tracker did with a window (core `tracking`, eq. 10): the first
+/// channel of the sensor map, nominal parameters `BearingParams::default_housing`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Tracking {
+    /// Θ updated.
+    Updated {
+        /// Radial stiffness `k_r`, N/m.
+        stiffness_radial: f64,
+        /// Radial damping `c_r`, N·s/m.
+        damping_radial: f64,
+        /// `k_r` over its nominal value.
+        stiffness_rel: f64,
+        /// `c_r` over its nominal value.
+        damping_rel: f64,
+        /// Feature-space consistency loss before the step.
+        loss_before: f64,
+        /// After the step.
+        loss_after: f64,
+    },
+    /// Not updated (Θ kept): why.
+    Skipped(&'static str),
+    /// The tracker refused the window (Θ kept).
+    Failed(pumptwin_core::Error),
+}
+
 /// Features of one channel over one window.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ChannelFeatures {
@@ -308,6 +340,11 @@ pub struct Window {
     pub explanation: Option<Explanation>,
     /// Latest slow-sensor values from DBC signals: `(role, value, unit)`.
     pub slow: Vec<(&'static str, f64, String)>,
+    /// The latest on-edge parameter tracking (first channel): the window it ran on
+    /// and its result. It runs after a window's line is out ([`Pipeline::track_pending`]),
+    /// so a window reports the update of an earlier one and the diagnosis never
+    /// waits for the tracker.
+    pub tracking: (Option<u64>, Tracking),
     /// Counters as of this window.
     pub health: Health,
 }
@@ -402,6 +439,12 @@ pub struct Pipeline {
     machine: Machine,
     cfg: FeatureConfig,
     slow: SlowSignals,
+    tracker: Box<Tracker<WINDOW>>,
+    /// First-channel samples of the last window cut, waiting for [`Pipeline::track_pending`].
+    track_buf: Box<[f32; WINDOW]>,
+    track_pending: Option<u64>,
+    /// The latest tracking result and the window it came from.
+    last_tracking: (Option<u64>, Tracking),
     channels: Vec<ChannelState>,
     decoded: heapless::Vec<f32, MAX_SAMPLES_PER_FRAME>,
     next_start: u64,
@@ -435,10 +478,20 @@ impl Pipeline {
                 })
             })
             .collect::<Result<_, pumptwin_core::Error>>()?;
+        let tracker = Box::new(Tracker::new(TrackerConfig::edge_default(
+            f64::from(fs),
+            BearingParams::default_housing(),
+            TRACK_IMPACT_N,
+            TRACK_IMPACT_SIGMA_S,
+        ))?);
         Ok(Self {
             machine: map.machine,
             cfg,
             slow: map.slow,
+            tracker,
+            track_buf: Box::new([0.0; WINDOW]),
+            track_pending: None,
+            last_tracking: (None, Tracking::Skipped("no window tracked yet")),
             channels,
             decoded: heapless::Vec::new(),
             next_start: 0,
@@ -495,6 +548,27 @@ impl Pipeline {
             }
         }
         Disposition::Slow
+    }
+
+    /// Run the tracker on the last window cut, if its first channel was whole
+    /// (Θ update, eq. 10); the result goes into the next window's line.
+    pub fn track_pending(&mut self) {
+        let Some(index) = self.track_pending.take() else {
+            return;
+        };
+        let nominal = self.tracker.config().nominal;
+        let result = match self.tracker.update(&self.track_buf) {
+            Ok(step) => Tracking::Updated {
+                stiffness_radial: step.theta.stiffness_radial,
+                damping_radial: step.theta.damping_radial,
+                stiffness_rel: step.theta.stiffness_radial / nominal.stiffness_radial,
+                damping_rel: step.theta.damping_radial / nominal.damping_radial,
+                loss_before: step.loss_before,
+                loss_after: step.loss_after,
+            },
+            Err(e) => Tracking::Failed(e),
+        };
+        self.last_tracking = (Some(index), result);
     }
 
     /// Latest slow-sensor values (`(role, value, unit)`), for the window output.
@@ -652,10 +726,15 @@ impl Pipeline {
     fn cut_window(&mut self, ts_us: u64) -> Window {
         let start = self.next_start;
         let mut channels = Vec::with_capacity(self.channels.len());
-        for ch in &self.channels {
+        self.track_pending = None;
+        for (ci, ch) in self.channels.iter().enumerate() {
             let outcome = if !ch.ring.copy_out(start, &mut self.window[..]) {
                 ChannelOutcome::Missing
             } else {
+                if ci == 0 && !ch.ring.has_gap(start, WINDOW) {
+                    self.track_buf.copy_from_slice(&self.window[..]);
+                    self.track_pending = Some(self.next_index);
+                }
                 match analyse(&self.window, &self.cfg, &mut self.scratch) {
                     Ok(features) => ChannelOutcome::Computed {
                         features: Box::new(features),
@@ -678,6 +757,7 @@ impl Pipeline {
             channels,
             explanation,
             slow: self.slow_values(),
+            tracking: self.last_tracking,
             health: Health::default(),
         };
         self.next_start += HOP as u64;

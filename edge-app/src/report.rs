@@ -18,6 +18,11 @@
 //!                   "harmonic", "match_hz", "error_pct", "within_tolerance"} | null,
 //!   "slow": {"rpm": {"value", "unit"}, "temperature": …, "pressure": …},
 //!                                      only with a [dbc] section: latest DBC signal values
+//!   "tracking": {"window": n, "status": "updated", "stiffness_radial", "damping_radial",
+//!                "stiffness_rel", "damping_rel", "loss_before", "loss_after"}
+//!             | {"window", "status": "skipped" | "failed", "reason"}
+//!                                      the latest on-edge Θ update (eq. 10) and the window
+//!                                      it ran on (an earlier one: it runs after each line)
 //!   "diagnosis": …,                    only with a Diagnoser (`--model`)
 //!   "health": {"frames_total", "used", "out_of_sequence", "unknown_id", "malformed",
 //!              "late", "remote", "error_frames", "lost_frames", "bad_lines",
@@ -30,8 +35,8 @@
 
 use crate::explain::Explanation;
 use crate::pipeline::{
-    ChannelFeatures, ChannelOutcome, Health, Window, ENV_BPFI_DB, ENV_BPFO_DB, ENV_BSF_DB,
-    ENV_KURTOSIS, ENV_SHAFT_DB,
+    ChannelFeatures, ChannelOutcome, Health, Tracking, Window, ENV_BPFI_DB, ENV_BPFO_DB,
+    ENV_BSF_DB, ENV_KURTOSIS, ENV_SHAFT_DB,
 };
 use serde::ser::{SerializeMap, Serializer};
 use serde::Serialize;
@@ -102,6 +107,7 @@ struct WindowReport<'a> {
     explanation: Option<&'a Explanation>,
     #[serde(skip_serializing_if = "Ordered::is_empty")]
     slow: Ordered<'a, SlowReport<'a>>,
+    tracking: serde_json::Value,
     #[serde(skip_serializing_if = "Option::is_none")]
     diagnosis: Option<&'a serde_json::Value>,
     health: &'a Health,
@@ -158,6 +164,31 @@ pub fn window_json(
                 })
                 .collect(),
         ),
+        tracking: match window.tracking.1 {
+            Tracking::Updated {
+                stiffness_radial,
+                damping_radial,
+                stiffness_rel,
+                damping_rel,
+                loss_before,
+                loss_after,
+            } => serde_json::json!({
+                "window": window.tracking.0,
+                "status": "updated",
+                "stiffness_radial": stiffness_radial,
+                "damping_radial": damping_radial,
+                "stiffness_rel": stiffness_rel,
+                "damping_rel": damping_rel,
+                "loss_before": loss_before,
+                "loss_after": loss_after,
+            }),
+            Tracking::Skipped(why) => serde_json::json!({
+                "window": window.tracking.0, "status": "skipped", "reason": why,
+            }),
+            Tracking::Failed(e) => serde_json::json!({
+                "window": window.tracking.0, "status": "failed", "reason": e.to_string(),
+            }),
+        },
         diagnosis,
         health: &window.health,
     };

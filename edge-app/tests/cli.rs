@@ -104,7 +104,7 @@ fn bad_inputs_fail_with_a_clear_message() {
 fn sigint_and_sigterm_flush_and_exit_zero() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     for sig in ["-INT", "-TERM"] {
-        let mut child = bin()
+        let child = bin()
             .current_dir(&root)
             .args([
                 "--replay",
@@ -131,10 +131,17 @@ fn sigint_and_sigterm_flush_and_exit_zero() {
         let stdout = String::from_utf8(out.stdout).unwrap();
         let lines: Vec<&str> = stdout.lines().collect();
         // ~1.5 s of a 12 kHz log at recorded pace: some windows, not all 116.
-        assert!(!lines.is_empty() && lines.len() < 100, "{sig}: {} lines", lines.len());
+        assert!(
+            !lines.is_empty() && lines.len() < 100,
+            "{sig}: {} lines",
+            lines.len()
+        );
         for l in &lines {
             serde_json::from_str::<serde_json::Value>(l).expect("whole JSON lines");
         }
-        assert!(stderr.contains("frames:"), "{sig}: no health summary\n{stderr}");
+        assert!(
+            stderr.contains("frames:"),
+            "{sig}: no health summary\n{stderr}"
+        );
     }
 }

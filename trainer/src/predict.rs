@@ -214,12 +214,18 @@ pub fn run_predict(args: &PredictArgs) -> Result<()> {
             String::new()
         },
         report.majority_class,
-        report.class_counts.get(&report.majority_class).unwrap_or(&0),
+        report
+            .class_counts
+            .get(&report.majority_class)
+            .unwrap_or(&0),
         report.windows.len(),
         if report.missing_nodes.is_empty() {
             String::new()
         } else {
-            format!("; nodes {:?} not in the recording: masked", report.missing_nodes)
+            format!(
+                "; nodes {:?} not in the recording: masked",
+                report.missing_nodes
+            )
         }
     );
     Ok(())

@@ -32,7 +32,10 @@ fn predict_fixture_with_int8_and_float_models_and_a_channel_subset() {
     let dir = std::env::temp_dir().join(format!("pumptwin-predict-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let fixture = root().join("tests/data/cwru105_1s.csv");
-    for model in ["models/dsstgat-cwru-tb.ptm", "models/dsstgat-cwru-tb.float/model.bpk"] {
+    for model in [
+        "models/dsstgat-cwru-tb.ptm",
+        "models/dsstgat-cwru-tb.float/model.bpk",
+    ] {
         let r = predict(&fixture, model, &dir.join("p.json"));
         assert_eq!(r["majority_class"], "IR007", "{model}");
         assert_eq!(r["windows"].as_array().unwrap().len(), 10);
@@ -52,7 +55,10 @@ fn predict_fixture_with_int8_and_float_models_and_a_channel_subset() {
     std::fs::write(&de_only, only).unwrap();
     let r = predict(&de_only, "models/dsstgat-cwru-tb.ptm", &dir.join("q.json"));
     assert_eq!(r["missing_nodes"], serde_json::json!(["FE", "BA"]));
-    assert_eq!(r["windows"][0]["masked_nodes"], serde_json::json!(["FE", "BA"]));
+    assert_eq!(
+        r["windows"][0]["masked_nodes"],
+        serde_json::json!(["FE", "BA"])
+    );
     assert_eq!(r["majority_class"], "IR007");
     let _ = std::fs::remove_dir_all(&dir);
 }
