@@ -17,6 +17,7 @@
 //! | [`diagnosis`] | the extension point for diagnosers |
 //! | [`model`] | the int8 DS-STGAT from a model file (`--model`) as a diagnoser |
 //! | [`live`] | live SocketCAN source (`--can IFACE`, reconnecting) and the `--publish-id` bus writer |
+//! | [`mqtt`] | telemetry to an MQTT broker, QoS 1, with an on-disk store-and-forward queue |
 //! | [`pace`] | replay at full speed or following the log's timestamps |
 //! | [`gateway`] | the run loop |
 //!
@@ -33,6 +34,7 @@ pub mod explain;
 pub mod gateway;
 pub mod live;
 pub mod model;
+pub mod mqtt;
 pub mod pace;
 pub mod pipeline;
 pub mod report;

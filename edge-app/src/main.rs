@@ -61,8 +61,10 @@ use pumptwin_edge::candump::{CandumpReplay, FrameSource};
 use pumptwin_edge::gateway::Gateway;
 use pumptwin_edge::live::{BusPublisher, SocketCanSource};
 use pumptwin_edge::model::{DiagnosisFrameEncoder, ModelDiagnoser};
+use pumptwin_edge::mqtt::{MqttConfig, MqttSink};
 use pumptwin_edge::pace::{Pacer, Speed};
 use pumptwin_edge::pipeline::Pipeline;
+use pumptwin_edge::report::window_json;
 use pumptwin_edge::sensor_map::SensorMap;
 use std::fs::{File, OpenOptions};
 use std::io::{self, BufRead, BufReader, BufWriter, Write};
@@ -115,6 +117,39 @@ struct Cli {
     /// End a live run after this many seconds without a frame (with --can).
     #[arg(long, value_name = "S", requires = "can")]
     idle_exit: Option<f64>,
+    /// Publish every window line (QoS 1) and periodic health to an MQTT broker:
+    /// mqtt://host[:port] or mqtts://host[:port] (TLS).
+    #[arg(long, value_name = "URL")]
+    mqtt: Option<String>,
+    /// Topic prefix: P/diagnosis, P/health.
+    #[arg(long, value_name = "P", default_value = "pumptwin", requires = "mqtt")]
+    topic_prefix: String,
+    /// MQTT username (password from --mqtt-password or PUMPTWIN_MQTT_PASSWORD).
+    #[arg(long, requires = "mqtt")]
+    mqtt_user: Option<String>,
+    /// MQTT password.
+    #[arg(
+        long,
+        env = "PUMPTWIN_MQTT_PASSWORD",
+        requires = "mqtt_user",
+        hide_env_values = true
+    )]
+    mqtt_password: Option<String>,
+    /// CA certificate (PEM) for mqtts://.
+    #[arg(long, requires = "mqtt")]
+    mqtt_ca: Option<PathBuf>,
+    /// MQTT client id.
+    #[arg(long, default_value = "pumptwin-edge", requires = "mqtt")]
+    mqtt_client_id: String,
+    /// Store-and-forward queue directory (survives restarts).
+    #[arg(long, default_value = "pumptwin-mqtt-queue", requires = "mqtt")]
+    mqtt_queue: PathBuf,
+    /// Most queued entries; beyond it the oldest is dropped and counted.
+    #[arg(long, default_value_t = 100_000, requires = "mqtt")]
+    mqtt_queue_capacity: usize,
+    /// Seconds the end of a run waits for the queue to drain.
+    #[arg(long, default_value_t = 30.0, requires = "mqtt")]
+    mqtt_drain_timeout: f64,
 }
 
 fn parse_id(s: &str) -> Result<u32, String> {
@@ -151,6 +186,25 @@ fn main() -> anyhow::Result<()> {
         SpeedArg::Max => Speed::Max,
         SpeedArg::Realtime => Speed::Realtime,
     };
+    let mut mqtt = match &cli.mqtt {
+        Some(url) => Some(
+            MqttSink::start(MqttConfig {
+                url: url.clone(),
+                topic_prefix: cli.topic_prefix.clone(),
+                client_id: cli.mqtt_client_id.clone(),
+                credentials: cli
+                    .mqtt_user
+                    .clone()
+                    .map(|u| (u, cli.mqtt_password.clone().unwrap_or_default())),
+                ca_file: cli.mqtt_ca.clone(),
+                queue_dir: cli.mqtt_queue.clone(),
+                capacity: cli.mqtt_queue_capacity.max(1),
+                drain_timeout: Duration::from_secs_f64(cli.mqtt_drain_timeout.max(0.0)),
+            })
+            .context("starting MQTT telemetry")?,
+        ),
+        None => None,
+    };
     let pipeline = Pipeline::new(map).context("building the signal path")?;
     let mut gateway = Gateway::new(pipeline, Pacer::new(speed)).with_stop(Arc::clone(&stop));
     let mut encoder = DiagnosisFrameEncoder::new(Vec::new(), Vec::new());
@@ -165,6 +219,7 @@ fn main() -> anyhow::Result<()> {
         encoder = DiagnosisFrameEncoder::for_model(&diagnoser);
         gateway = gateway.with_diagnoser(Box::new(diagnoser));
     }
+    let mut bus: Option<BusPublisher> = None;
     let (mut source, what): (Box<dyn FrameSource>, String) = match (&cli.replay, &cli.can) {
         (Some(path), _) => {
             let input: Box<dyn BufRead> = if path.as_os_str() == "-" {
@@ -181,10 +236,10 @@ fn main() -> anyhow::Result<()> {
         }
         (None, Some(iface)) => {
             if let Some(id) = cli.publish_id {
-                let bus = BusPublisher::open(iface, id)
-                    .with_context(|| format!("opening {iface} to publish diagnoses"))?;
-                gateway =
-                    gateway.with_publisher(Box::new(move |w, d| bus.send(&encoder.encode(w, d))));
+                bus = Some(
+                    BusPublisher::open(iface, id)
+                        .with_context(|| format!("opening {iface} to publish diagnoses"))?,
+                );
             }
             let idle = cli.idle_exit.map(Duration::from_secs_f64);
             (
@@ -199,6 +254,20 @@ fn main() -> anyhow::Result<()> {
         }
         (None, None) => anyhow::bail!("give --replay FILE or --can IFACE"),
     };
+    if bus.is_some() || mqtt.is_some() {
+        let mut mqtt_ref = mqtt.as_mut();
+        gateway = gateway.with_publisher(Box::new(move |w, d| {
+            if let Some(m) = mqtt_ref.as_deref_mut() {
+                let line = window_json(w, d).map_err(io::Error::other)?;
+                let health = serde_json::to_value(w.health).map_err(io::Error::other)?;
+                m.send_window(&line, &health);
+            }
+            match &bus {
+                Some(b) => b.send(&encoder.encode(w, d)),
+                None => Ok(()),
+            }
+        }));
+    }
     let result = gateway.run(&mut *source, &mut out, &mut io::stderr());
     out.flush().context("flushing the output")?;
     let health = gateway.pipeline().health();
@@ -213,11 +282,17 @@ fn main() -> anyhow::Result<()> {
             gateway.latency.quantile_us(1.0).unwrap_or(0)
         );
     }
-    if gateway.publish_failures > 0 {
+    let publish_failures = gateway.publish_failures;
+    drop(gateway);
+    if let Some(m) = mqtt {
+        let s = m.finish();
         eprintln!(
-            "pumptwin-edge: {} diagnosis frames could not be sent",
-            gateway.publish_failures
+            "pumptwin-edge: mqtt: produced {}, delivered {}, dropped {}, pending {}, resent {}, connects {}",
+            s.produced, s.delivered, s.dropped, s.pending, s.resent, s.connects
         );
+    }
+    if publish_failures > 0 {
+        eprintln!("pumptwin-edge: {publish_failures} diagnosis frames could not be sent");
     }
     result.map(|_| ()).with_context(|| what)
 }
