@@ -108,6 +108,7 @@ pub struct Gateway<'d> {
     pub publish_failures: u64,
     /// Frame → JSON line latency of every window.
     pub latency: LatencyHistogram,
+    metrics: Option<Arc<std::sync::Mutex<crate::ops::Metrics>>>,
 }
 
 impl std::fmt::Debug for Gateway<'_> {
@@ -134,6 +135,7 @@ impl<'d> Gateway<'d> {
             stop: None,
             publish_failures: 0,
             latency: LatencyHistogram::default(),
+            metrics: None,
         }
     }
 
@@ -153,6 +155,12 @@ impl<'d> Gateway<'d> {
     /// flushed, the run returns normally.
     pub fn with_stop(mut self, stop: Arc<AtomicBool>) -> Self {
         self.stop = Some(stop);
+        self
+    }
+
+    /// Keep `metrics` up to date after every window (for `--metrics-addr`).
+    pub fn with_metrics(mut self, metrics: Arc<std::sync::Mutex<crate::ops::Metrics>>) -> Self {
+        self.metrics = Some(metrics);
         self
     }
 
@@ -212,6 +220,16 @@ impl<'d> Gateway<'d> {
                 self.latency.record(t_frame.elapsed());
                 // Θ tracking runs after the line is out: it never delays a diagnosis.
                 self.pipeline.track_pending();
+                if let Some(m) = &self.metrics {
+                    if let Ok(mut m) = m.lock() {
+                        m.health = window.health;
+                        m.publish_failures = self.publish_failures;
+                        m.latency_us = (
+                            self.latency.quantile_us(0.5).unwrap_or(0),
+                            self.latency.quantile_us(0.99).unwrap_or(0),
+                        );
+                    }
+                }
                 if let Some(p) = self.publisher.as_mut() {
                     if let Err(e) = p(&window, diagnosis.as_ref()) {
                         self.publish_failures += 1;

@@ -18,6 +18,7 @@
 //! | [`model`] | the int8 DS-STGAT from a model file (`--model`) as a diagnoser |
 //! | [`live`] | live SocketCAN source (`--can IFACE`, reconnecting) and the `--publish-id` bus writer |
 //! | [`mqtt`] | telemetry to an MQTT broker, QoS 1, with an on-disk store-and-forward queue |
+//! | [`ops`] | `--config FILE.toml` for every flag, Prometheus `/metrics` endpoint |
 //! | [`pace`] | replay at full speed or following the log's timestamps |
 //! | [`gateway`] | the run loop |
 //!
@@ -35,6 +36,7 @@ pub mod gateway;
 pub mod live;
 pub mod model;
 pub mod mqtt;
+pub mod ops;
 pub mod pace;
 pub mod pipeline;
 pub mod report;

@@ -62,6 +62,7 @@ use pumptwin_edge::gateway::Gateway;
 use pumptwin_edge::live::{BusPublisher, SocketCanSource};
 use pumptwin_edge::model::{DiagnosisFrameEncoder, ModelDiagnoser};
 use pumptwin_edge::mqtt::{MqttConfig, MqttSink};
+use pumptwin_edge::ops::{serve_metrics, Metrics};
 use pumptwin_edge::pace::{Pacer, Speed};
 use pumptwin_edge::pipeline::Pipeline;
 use pumptwin_edge::report::window_json;
@@ -86,7 +87,7 @@ enum SpeedArg {
 /// features, physics explanation, the model's diagnosis and health, one JSON object
 /// per window.
 #[derive(Debug, Parser)]
-#[command(name = "pumptwin-edge", version, about)]
+#[command(name = "pumptwin-edge", version, about, args_override_self = true)]
 struct Cli {
     /// candump -l log to replay (`-` for standard input).
     #[arg(
@@ -114,6 +115,13 @@ struct Cli {
     /// Send a compact diagnosis frame with this CAN id after every window (with --can).
     #[arg(long, value_name = "ID", value_parser = parse_id, requires = "can")]
     publish_id: Option<u32>,
+    /// Read flags from this TOML file (keys: the long flag names); the command line
+    /// overrides it.
+    #[arg(long, value_name = "FILE.toml")]
+    config: Option<PathBuf>,
+    /// Serve the health counters for Prometheus at http://ADDR/metrics.
+    #[arg(long, value_name = "HOST:PORT")]
+    metrics_addr: Option<std::net::SocketAddr>,
     /// End a live run after this many seconds without a frame (with --can).
     #[arg(long, value_name = "S", requires = "can")]
     idle_exit: Option<f64>,
@@ -164,8 +172,34 @@ fn parse_id(s: &str) -> Result<u32, String> {
     Ok(v)
 }
 
+/// The command line, with a `--config` file's flags before it (so it overrides them).
+fn parse_cli() -> anyhow::Result<Cli> {
+    let argv: Vec<String> = std::env::args().collect();
+    // The config file is looked up before parsing: the flags it gives may be the
+    // required ones.
+    let path = argv.iter().enumerate().find_map(|(i, a)| {
+        a.strip_prefix("--config=")
+            .map(PathBuf::from)
+            .or_else(|| (a == "--config").then(|| argv.get(i + 1).map(PathBuf::from))?)
+    });
+    let Some(path) = path else {
+        return Ok(Cli::parse_from(argv));
+    };
+    let cmd = <Cli as clap::CommandFactory>::command();
+    let known: Vec<String> = cmd
+        .get_arguments()
+        .filter_map(|a| a.get_long().map(str::to_string))
+        .collect();
+    let known: Vec<&str> = known.iter().map(String::as_str).collect();
+    let from_file = pumptwin_edge::ops::config_args(&path, &known)?;
+    let mut args = vec![argv[0].clone()];
+    args.extend(from_file);
+    args.extend(argv.into_iter().skip(1));
+    Ok(Cli::parse_from(args))
+}
+
 fn main() -> anyhow::Result<()> {
-    let cli = Cli::parse();
+    let cli = parse_cli()?;
     let stop = Arc::new(AtomicBool::new(false));
     for sig in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
         signal_hook::flag::register(sig, Arc::clone(&stop))
@@ -254,8 +288,15 @@ fn main() -> anyhow::Result<()> {
         }
         (None, None) => anyhow::bail!("give --replay FILE or --can IFACE"),
     };
-    if bus.is_some() || mqtt.is_some() {
+    let metrics = Arc::new(std::sync::Mutex::new(Metrics::default()));
+    if let Some(addr) = cli.metrics_addr {
+        let bound = serve_metrics(addr, Arc::clone(&metrics))
+            .with_context(|| format!("serving metrics on {addr}"))?;
+        eprintln!("pumptwin-edge: metrics at http://{bound}/metrics");
+    }
+    {
         let mut mqtt_ref = mqtt.as_mut();
+        gateway = gateway.with_metrics(Arc::clone(&metrics));
         gateway = gateway.with_publisher(Box::new(move |w, d| {
             if let Some(m) = mqtt_ref.as_deref_mut() {
                 let line = window_json(w, d).map_err(io::Error::other)?;

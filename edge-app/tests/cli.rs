@@ -145,3 +145,65 @@ fn sigint_and_sigterm_flush_and_exit_zero() {
         );
     }
 }
+
+/// `--config FILE.toml` gives the flags; `--metrics-addr` serves the counters for
+/// Prometheus while the run goes on, and they add up; an unknown key is an error.
+#[test]
+fn config_file_and_metrics_endpoint() {
+    use std::io::{Read, Write};
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let dir = temp_dir("config");
+    let port = std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port();
+    let conf = dir.join("edge.toml");
+    std::fs::write(
+        &conf,
+        format!(
+            "replay = \"models/demo.log\"\nsensors = \"models/cwru-sensors.toml\"\n\
+             speed = \"realtime\"\nmetrics_addr = \"127.0.0.1:{port}\"\n"
+        ),
+    )
+    .unwrap();
+    let child = bin()
+        .current_dir(&root)
+        .arg("--config")
+        .arg(&conf)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(2500));
+    let mut s = std::net::TcpStream::connect(("127.0.0.1", port)).unwrap();
+    s.write_all(b"GET /metrics HTTP/1.1\r\nHost: x\r\n\r\n")
+        .unwrap();
+    let mut body = String::new();
+    s.read_to_string(&mut body).unwrap();
+    let _ = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status();
+    let out = child.wait_with_output().unwrap();
+    assert!(out.status.success());
+    assert!(body.starts_with("HTTP/1.1 200 OK"), "{body}");
+    let value = |name: &str| -> u64 {
+        body.lines()
+            .find(|l| l.starts_with(name))
+            .and_then(|l| l.rsplit(' ').next())
+            .and_then(|v| v.parse().ok())
+            .unwrap_or_else(|| panic!("{name} missing:\n{body}"))
+    };
+    assert!(value("pumptwin_windows_total") > 0);
+    let buckets: u64 = body
+        .lines()
+        .filter(|l| l.starts_with("pumptwin_frames_total{"))
+        .map(|l| l.rsplit(' ').next().unwrap().parse::<u64>().unwrap())
+        .sum();
+    assert_eq!(buckets, value("pumptwin_frames_seen_total"));
+    // An unknown key is refused by name.
+    std::fs::write(&conf, "sensorz = \"x\"\n").unwrap();
+    let r = bin().arg("--config").arg(&conf).output().unwrap();
+    assert!(!r.status.success());
+    assert!(String::from_utf8_lossy(&r.stderr).contains("sensorz"));
+}
