@@ -11,6 +11,13 @@
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 rustup target add x86_64-unknown-linux-musl >/dev/null 2>&1 || true
+# C code in the dependency tree (ring, under the MQTT client's TLS) needs a musl C
+# compiler for the static build: Debian's musl-tools.
+if ! command -v musl-gcc >/dev/null; then
+    apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq musl-tools >/dev/null
+fi
+export CC_x86_64_unknown_linux_musl=musl-gcc
 cargo build --release -p pumptwin-edge --target x86_64-unknown-linux-musl
 bin=target/x86_64-unknown-linux-musl/release/pumptwin-edge
 work=target/vcan-vm/edge-live
