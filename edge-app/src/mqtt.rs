@@ -92,6 +92,8 @@ struct Entry {
     seq: u64,
     topic: String,
     payload: String,
+    /// Published at least once in this run (a later publish counts as resent).
+    sent: bool,
 }
 
 /// The on-disk queue: `queue.log` holds `seq\ttopic\tpayload` lines, `acked` the
@@ -141,6 +143,7 @@ impl DiskQueue {
                         seq,
                         topic: topic.to_string(),
                         payload: payload.to_string(),
+                        sent: false,
                     });
                 }
             }
@@ -170,6 +173,7 @@ impl DiskQueue {
             seq,
             topic,
             payload,
+            sent: false,
         });
         Ok(seq)
     }
@@ -348,7 +352,6 @@ fn sender(
     let mut inflight: Vec<(u16, u64)> = Vec::new();
     // next queue position not yet published on this connection
     let mut next_unsent = 0usize;
-    let mut ever_sent: std::collections::HashSet<u64> = std::collections::HashSet::new();
     loop {
         // New lines from the gateway.
         loop {
@@ -385,7 +388,7 @@ fn sender(
         });
         // Publish in order while there is room on the wire.
         while connected && inflight.len() + awaiting_pkid.len() < INFLIGHT {
-            let Some(e) = queue.entries.get(next_unsent) else {
+            let Some(e) = queue.entries.get_mut(next_unsent) else {
                 break;
             };
             let payload = with_seq(e.seq, &e.payload);
@@ -395,9 +398,10 @@ fn sender(
             {
                 break;
             }
-            if !ever_sent.insert(e.seq) {
+            if e.sent {
                 stats.resent += 1;
             }
+            e.sent = true;
             awaiting_pkid.push_back(e.seq);
             next_unsent += 1;
         }
