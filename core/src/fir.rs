@@ -21,6 +21,15 @@ use crate::math;
 /// Default common band limit in Hz, applied to every record before features.
 pub const BAND_LIMIT_HZ: f32 = 5_000.0;
 
+/// Length of the band-limit filter at the model rate (odd): the trainer's
+/// preprocessing (scaled by the decimation factor there) and the edge's streaming
+/// filter use the same.
+pub const BAND_LIMIT_TAPS: usize = 101;
+
+/// Highest cutoff as a fraction of the rate: keeps the anti-alias stop band below the
+/// Nyquist frequency.
+pub const MAX_CUTOFF_FRACTION: f32 = 0.45;
+
 /// Fill `taps` (odd length ≥ 3) with a Blackman-windowed-sinc low-pass at `cutoff_hz`.
 pub fn design_lowpass(cutoff_hz: f32, fs_hz: f32, taps: &mut [f32]) -> Result<()> {
     let l = taps.len();

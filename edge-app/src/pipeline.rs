@@ -74,7 +74,7 @@ use pumptwin_core::features::{
     node_features, peak_frequency, FeatureConfig, FeatureScratch, TimeStats, FEATURE_DIM,
     FEATURE_NAMES,
 };
-use pumptwin_core::fir::FirLowpass;
+use pumptwin_core::fir::{FirLowpass, BAND_LIMIT_TAPS, MAX_CUTOFF_FRACTION};
 use pumptwin_core::simulator::BearingParams;
 use pumptwin_core::tracking::{Tracker, TrackerConfig};
 use serde::Serialize;
@@ -85,11 +85,6 @@ pub const WINDOW: usize = 2048;
 pub const HOP: usize = WINDOW / 2;
 /// Segments (graph steps) per window.
 pub const SEGMENTS: usize = pumptwin_core::features::STANDARD_SEGMENTS;
-/// Taps of the band-limit filter: the trainer's native-rate filter
-/// (`trainer::data::preprocess::BAND_LIMIT_TAPS`).
-pub const BAND_LIMIT_TAPS: usize = 101;
-/// Highest cutoff as a fraction of the rate (as the trainer's preprocessing).
-pub const MAX_CUTOFF_FRACTION: f32 = 0.45;
 /// Ring size per channel.
 pub const RING: usize = 2 * WINDOW;
 const _: () = assert!(RING >= WINDOW + MAX_SAMPLES_PER_FRAME && HOP >= MAX_SAMPLES_PER_FRAME);

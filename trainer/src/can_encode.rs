@@ -23,12 +23,11 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::{bail, ensure, Context, Result};
-use pumptwin_core::fir::{decimated_len, design_lowpass, filter_decimate};
 use pumptwin_edge::candump::{format_line, Frame, FrameKind, CANFD_LENGTHS, CAN_MAX_DLEN};
 use pumptwin_edge::sensor_map::SensorMap;
 
-use crate::data::preprocess::{BAND_LIMIT_TAPS, MAX_CUTOFF_FRACTION};
-use crate::data::record::{load_recording, Recording};
+use crate::data::preprocess::{preprocess, PreprocessConfig};
+use crate::data::record::load_recording;
 
 /// `pumptwin can-encode`.
 #[derive(Debug, Clone, clap::Args)]
@@ -70,34 +69,6 @@ pub struct EncodeSummary {
     pub absent: Vec<(String, String)>,
 }
 
-/// A record brought to `fs` (integer decimation with anti-aliasing).
-fn to_rate(rec: &Recording, fs: f32) -> Result<Recording> {
-    let ratio = rec.fs_hz / fs;
-    let m = ratio.round();
-    ensure!(
-        m >= 1.0 && (ratio - m).abs() < 1e-3,
-        "{}: {} Hz is not an integer multiple of the sensor map's {fs} Hz",
-        rec.name,
-        rec.fs_hz
-    );
-    let m = m as usize;
-    if m == 1 {
-        return Ok(rec.clone());
-    }
-    let mut taps = vec![0.0f32; BAND_LIMIT_TAPS * m + usize::from((BAND_LIMIT_TAPS * m) % 2 == 0)];
-    design_lowpass(MAX_CUTOFF_FRACTION * fs, rec.fs_hz, &mut taps)
-        .map_err(|e| anyhow::anyhow!("anti-alias filter: {e}"))?;
-    let mut out = rec.clone();
-    out.fs_hz = fs;
-    for c in out.channels.iter_mut() {
-        let mut y = vec![0.0f32; decimated_len(c.samples.len(), m)];
-        filter_decimate(&c.samples, &taps, m, &mut y)
-            .map_err(|e| anyhow::anyhow!("decimating {}: {e}", c.name))?;
-        c.samples = y;
-    }
-    Ok(out)
-}
-
 /// Run `pumptwin can-encode`.
 pub fn run_can_encode(args: &CanEncodeArgs) -> Result<()> {
     let map = SensorMap::load(&args.sensors)
@@ -118,7 +89,17 @@ pub fn run_can_encode(args: &CanEncodeArgs) -> Result<()> {
     for path in &args.input {
         let rec = load_recording(path, args.fs, None)
             .with_context(|| format!("cannot load {}", path.display()))?;
-        let rec = to_rate(&rec, fs)?;
+        // To the map's rate: integer ratios anti-aliased and decimated, as the
+        // trainer does; no band limit (that is the gateway's job).
+        let rec = preprocess(
+            &rec,
+            &PreprocessConfig {
+                target_fs_hz: fs,
+                band_limit_hz: None,
+                ..PreprocessConfig::default()
+            },
+        )
+        .with_context(|| format!("cannot bring {} to {fs} Hz", path.display()))?;
         let len = rec.len();
         let start = (args.start_fraction * len as f64) as usize;
         let end = match args.duration_s {

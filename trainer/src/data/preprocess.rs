@@ -41,12 +41,9 @@ use super::record::{Channel, Recording};
 /// Default model sampling rate in Hz.
 pub const MODEL_FS_HZ: f32 = 12_000.0;
 
-/// Default filter length at the model rate (odd).
-pub const BAND_LIMIT_TAPS: usize = 101;
-
-/// Highest cutoff as a fraction of the model rate: keeps the anti-alias stop band
-/// below the model's Nyquist frequency.
-pub const MAX_CUTOFF_FRACTION: f32 = 0.45;
+/// Default filter length at the model rate, and the highest cutoff as a fraction of
+/// the model rate (the edge's streaming filter uses the same, from the core).
+pub use pumptwin_core::fir::{BAND_LIMIT_TAPS, MAX_CUTOFF_FRACTION};
 
 /// How recordings are brought to the model rate.
 #[derive(Debug, Clone, Copy, PartialEq)]
