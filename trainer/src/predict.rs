@@ -111,9 +111,13 @@ pub fn run_predict(args: &PredictArgs) -> Result<()> {
         .map(|n| (*n).to_string())
         .collect();
     // Model-specific normalization, graph and forward.
-    let int8 = is_model_file(&args.model);
-    let (classes, norm, graph) = if int8 {
-        let m = load_model_file(&args.model)?;
+    let int8_model = if is_model_file(&args.model) {
+        Some(load_model_file(&args.model)?)
+    } else {
+        None
+    };
+    let int8 = int8_model.is_some();
+    let (classes, norm, graph) = if let Some(m) = &int8_model {
         let (norm, _) = m.norms()?;
         (m.classes(), norm, m.file.graph_config::<N_NODES>()?)
     } else {
@@ -127,8 +131,7 @@ pub fn run_predict(args: &PredictArgs) -> Result<()> {
             .map_err(|e| anyhow::anyhow!("window at sample {}: {e}", w.start))?;
         ds.push(&x, &a, &w.mask.0, &[0.0; N_INDICATORS], 0, 0);
     }
-    let probs: Vec<Vec<f32>> = if int8 {
-        let m = load_model_file(&args.model)?;
+    let probs: Vec<Vec<f32>> = if let Some(m) = &int8_model {
         let outs: Vec<Output<16, 8>> = crate::export::int8_outputs(&m.model, &ds)?;
         let c = m.model.classes();
         outs.iter()
