@@ -152,7 +152,19 @@ impl SlowSignals {
             path: file.to_owned(),
             source,
         })?;
-        let dbc = Dbc::try_from(text.as_str()).map_err(|e| DbcError::Parse {
+        Self::parse(&text, file, names)
+    }
+
+    /// [`SlowSignals::load`] on DBC text already read; `file` only names it in errors.
+    ///
+    /// # Errors
+    /// Those of [`SlowSignals::load`] but [`DbcError::Read`].
+    pub fn parse(
+        text: &str,
+        file: &Path,
+        names: &[(&'static str, String)],
+    ) -> Result<Self, DbcError> {
+        let dbc = Dbc::try_from(text).map_err(|e| DbcError::Parse {
             path: file.to_owned(),
             reason: format!("{e:?}"),
         })?;
