@@ -456,7 +456,11 @@ impl<const F: usize, const H: usize, const C: usize, const K: usize> DsStgat<F, 
         let mut g = [0i8; H];
         self.pool.forward(&s.states, mask, &mut g)?;
         self.classifier.linear().forward_i32(&g, &mut out.logits);
-        out.class = argmax_i32(&out.logits[..self.classes]).unwrap_or(0);
+        out.class = out
+            .logits
+            .get(..self.classes)
+            .and_then(argmax_i32)
+            .unwrap_or(0);
         self.indicator.forward_i32(&g, &mut out.indicators);
         Ok(())
     }

@@ -176,17 +176,23 @@ impl SpectralStats {
         let (mut total, mut first) = (0.0f64, 0.0f64);
         let mut band = [0.0f64; 4];
         let mut k_peak = 1;
-        for k in 1..=k_max {
-            let p = f64::from(power[k]);
+        // Bins 1..=k_max (k_max < power.len()), by iterator: no index can fail.
+        let bins = || power.iter().enumerate().take(k_max + 1).skip(1);
+        let mut peak = power.get(1).copied().unwrap_or(0.0);
+        for (k, &pk) in bins() {
+            let p = f64::from(pk);
             if !p.is_finite() {
                 return Err(Error::NonFinite);
             }
             total += p;
             first += p * f64::from(k as f32 * df);
             let b = ((k as f32 * df / band_limit_hz) * 4.0) as usize;
-            band[b.min(3)] += p;
-            if power[k] > power[k_peak] {
+            if let Some(e) = band.get_mut(b.min(3)) {
+                *e += p;
+            }
+            if pk > peak {
                 k_peak = k;
+                peak = pk;
             }
         }
         if total <= 0.0 {
@@ -194,9 +200,9 @@ impl SpectralStats {
         }
         let centroid = first / total;
         let mut second = 0.0f64;
-        for k in 1..=k_max {
+        for (k, &pk) in bins() {
             let d = f64::from(k as f32 * df) - centroid;
-            second += d * d * f64::from(power[k]);
+            second += d * d * f64::from(pk);
         }
         Ok(Self {
             dominant_hz: interpolated_peak(power, k_peak) * df,
@@ -217,7 +223,9 @@ fn interpolated_peak(p: &[f32], k: usize) -> f32 {
     if k == 0 || k + 1 >= p.len() {
         return k as f32;
     }
-    let (a, b, c) = (p[k - 1], p[k], p[k + 1]);
+    let (Some(&a), Some(&b), Some(&c)) = (p.get(k - 1), p.get(k), p.get(k + 1)) else {
+        return k as f32;
+    };
     let denom = a - 2.0 * b + c;
     if denom.abs() < f32::MIN_POSITIVE {
         return k as f32;
@@ -344,12 +352,14 @@ pub fn harmonic_level_db(
         let f = h as f32 * f0_hz;
         let tol = df.max(slip * f);
         let lo = ((f - tol) / df).max(1.0) as usize;
-        let hi = ((f + tol) / df) as usize + 1;
+        // Saturating: a huge (finite) f0 — a speed signal gone wild — must end the
+        // loop, not wrap `hi` to 0 and index backwards.
+        let hi = (((f + tol) / df) as usize).saturating_add(1);
         if hi >= spectrum.len() {
             break;
         }
         let mut best = 0.0f32;
-        for &s in &spectrum[lo..=hi] {
+        for &s in spectrum.get(lo..=hi).unwrap_or_default() {
             best = best.max(s);
         }
         sum += best;
@@ -363,15 +373,85 @@ pub fn harmonic_level_db(
 
 /// Median of the envelope spectrum bins `1..=k_hi`, computed in `work` (no allocation).
 fn median_level(spectrum: &[f32], k_hi: usize, work: &mut [f32]) -> f32 {
-    let k_hi = k_hi.min(spectrum.len() - 1).min(work.len());
+    let k_hi = k_hi.min(spectrum.len().saturating_sub(1)).min(work.len());
+    let (Some(w), Some(bins)) = (work.get_mut(..k_hi), spectrum.get(1..=k_hi)) else {
+        return 0.0;
+    };
     if k_hi == 0 {
         return 0.0;
     }
-    let w = &mut work[..k_hi];
-    w.copy_from_slice(&spectrum[1..=k_hi]);
-    let mid = k_hi / 2;
-    let (_, m, _) = w.select_nth_unstable_by(mid, |a, b| a.total_cmp(b));
-    *m
+    for (d, &s) in w.iter_mut().zip(bins) {
+        *d = s;
+    }
+    select_nth(w, k_hi / 2).unwrap_or(0.0)
+}
+
+/// The `k`-th smallest value of `w` by `f32::total_cmp` (the value
+/// `select_nth_unstable_by(k, total_cmp)` returns), reordering `w`; `None` for
+/// `k ≥ w.len()`.
+///
+/// Quickselect with a median-of-three pivot and a three-way partition (runs of equal
+/// values, e.g. the all-zero spectrum of a silent sensor, cost one pass), written
+/// with checked accesses so that no panic path remains: core's `select_nth_unstable`
+/// keeps bounds checks the optimiser cannot remove (RELIABILITY.md, "no panic path").
+fn select_nth(w: &mut [f32], k: usize) -> Option<f32> {
+    use core::cmp::Ordering::{Equal, Greater, Less};
+    let (mut lo, mut hi) = (0usize, w.len());
+    if k >= hi {
+        return None;
+    }
+    loop {
+        // Invariant: lo ≤ k < hi ≤ w.len(), and w[lo..hi] holds the k-th smallest.
+        let seg = w.get_mut(lo..hi)?;
+        let n = seg.len();
+        let (a, b, c) = (*seg.first()?, *seg.get(n / 2)?, *seg.last()?);
+        let pivot = if a.total_cmp(&b).is_lt() {
+            if b.total_cmp(&c).is_lt() {
+                b
+            } else if a.total_cmp(&c).is_lt() {
+                c
+            } else {
+                a
+            }
+        } else if a.total_cmp(&c).is_lt() {
+            a
+        } else if b.total_cmp(&c).is_lt() {
+            c
+        } else {
+            b
+        };
+        // seg[..lt] < pivot, seg[lt..i] == pivot, seg[gt..] > pivot.
+        let (mut lt, mut i, mut gt) = (0usize, 0usize, n);
+        while i < gt {
+            match seg.get(i)?.total_cmp(&pivot) {
+                Less => {
+                    swap_checked(seg, lt, i);
+                    lt += 1;
+                    i += 1;
+                }
+                Greater => {
+                    gt -= 1;
+                    swap_checked(seg, i, gt);
+                }
+                Equal => i += 1,
+            }
+        }
+        let r = k - lo;
+        if r < lt {
+            hi = lo + lt;
+        } else if r < gt {
+            return Some(pivot);
+        } else {
+            lo += gt;
+        }
+    }
+}
+
+/// `s.swap(i, j)` when both are in bounds (always, at the call sites above).
+fn swap_checked(s: &mut [f32], i: usize, j: usize) {
+    if i < s.len() && j < s.len() {
+        s.swap(i, j);
+    }
 }
 
 /// What the feature extractor is told about the machine and the acquisition.
@@ -545,7 +625,9 @@ pub fn node_features<const W: usize>(
         }
         env_row[4] = env_stats;
         for row in out.iter_mut() {
-            row[ENVELOPE_OFFSET..].copy_from_slice(&env_row);
+            for (d, &v) in row.iter_mut().skip(ENVELOPE_OFFSET).zip(&env_row) {
+                *d = v;
+            }
         }
     }
 
@@ -888,5 +970,60 @@ mod tests {
             node_features(&[1.0; W], &cfg, &mut scratch, &mut short),
             Err(Error::BufferSize { .. })
         ));
+    }
+
+    /// Regression (found by the no-panic link probe, RELIABILITY.md): a huge but
+    /// finite shaft rate (a sensor map's `rpm = 1e30`, a DBC speed signal gone wild)
+    /// made `harmonic_level_db`'s upper bin saturate to `usize::MAX`, wrap to 0 on
+    /// `+ 1`, and index `spectrum[lo..=0]`: a panic in every build.
+    #[test]
+    fn a_huge_finite_shaft_rate_is_no_panic() {
+        let mut r = Xoshiro128pp::seed_from_u64(11);
+        let x: [f32; 2048] = core::array::from_fn(|_| r.normal() as f32);
+        for shaft_hz in [1e30f32, f32::MAX, 3.0e38, 1e20] {
+            let cfg =
+                FeatureConfig::standard(12_000.0, shaft_hz, BearingGeometry::CWRU_6205_DE.orders());
+            let mut scratch = FeatureScratch::<2048>::new();
+            let mut rows = [[0.0f32; FEATURE_DIM]; STANDARD_SEGMENTS];
+            if node_features(&x, &cfg, &mut scratch, &mut rows).is_ok() {
+                assert!(rows.iter().flatten().all(|v| v.is_finite()), "{shaft_hz}");
+            }
+        }
+        let spectrum = [1.0f32; 1025];
+        for f0 in [1e30f32, f32::MAX, f32::INFINITY, f32::NAN, -5.0, 0.0] {
+            let db = harmonic_level_db(&spectrum, 12_000.0, f0, 5, 0.01, 1.0);
+            assert!(db.is_finite(), "f0 = {f0}: {db}");
+        }
+    }
+
+    /// `select_nth` (the panic-free median of `median_level`) returns exactly what
+    /// core's `select_nth_unstable_by(k, total_cmp)` does, ties, NaN and ±0 included.
+    #[test]
+    fn select_nth_agrees_with_core_select() {
+        let mut r = Xoshiro128pp::seed_from_u64(5);
+        let mut cases: Vec<Vec<f32>> = std::vec![
+            std::vec![0.0; 1024],
+            (0..513).map(|i| i as f32).collect(),
+            (0..513).rev().map(|i| i as f32).collect(),
+            std::vec![3.0, f32::NAN, -0.0, 0.0, f32::INFINITY, -1.0, 3.0],
+            std::vec![1.0],
+            std::vec![2.0, 1.0],
+        ];
+        for n in [3usize, 10, 101, 1000] {
+            cases.push((0..n).map(|_| (r.normal() * 4.0).round() as f32).collect());
+            cases.push((0..n).map(|_| r.normal() as f32).collect());
+        }
+        for case in &cases {
+            for k in [0, case.len() / 2, case.len() - 1] {
+                let mut a = case.clone();
+                let mut b = case.clone();
+                let got = select_nth(&mut a, k).unwrap();
+                let (_, want, _) = b.select_nth_unstable_by(k, |x, y| x.total_cmp(y));
+                assert_eq!(got.to_bits(), want.to_bits(), "k = {k} of {case:?}");
+            }
+            assert_eq!(select_nth(&mut case.clone(), case.len()), None);
+        }
+        assert_eq!(median_level(&[], 10, &mut [0.0; 4]), 0.0);
+        assert_eq!(median_level(&[1.0, 2.0, 3.0], 10, &mut []), 0.0);
     }
 }

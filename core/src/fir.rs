@@ -169,15 +169,25 @@ impl<const L: usize> FirLowpass<L> {
     }
     /// Push one sample, get one filtered sample.
     pub fn push(&mut self, x: f32) -> f32 {
-        self.line[self.pos] = x;
-        let mut acc = 0.0;
-        // taps[0] multiplies the newest sample.
-        let mut idx = self.pos;
-        for h in self.taps.iter() {
-            acc += h * self.line[idx];
-            idx = if idx == 0 { L - 1 } else { idx - 1 };
+        // `pos < L` always; the checked split is the panic-free way to say so.
+        let Some((newer, older)) = self.line.split_at_mut_checked(self.pos + 1) else {
+            self.pos = 0;
+            return 0.0;
+        };
+        if let Some(newest) = newer.last_mut() {
+            *newest = x;
         }
-        self.pos = if self.pos + 1 == L { 0 } else { self.pos + 1 };
+        // taps[0] multiplies the newest sample: line[pos], line[pos − 1], …, line[0],
+        // then line[L − 1], …, line[pos + 1].
+        let mut acc = 0.0;
+        for (h, v) in self
+            .taps
+            .iter()
+            .zip(newer.iter().rev().chain(older.iter().rev()))
+        {
+            acc += h * v;
+        }
+        self.pos = if self.pos + 1 >= L { 0 } else { self.pos + 1 };
         acc
     }
     /// Forget the history.

@@ -124,7 +124,8 @@ impl<const N: usize> GraphConfig<N> {
 }
 
 /// Pearson correlation (eq. 1) of nodes `i` and `j` over steps `lo..=hi`.
-/// Returns 0 when either node is constant over the window.
+/// Returns 0 when either node is constant over the window, and for arguments outside
+/// `x` (`hi < lo`, `hi ≥ x.len()`, `i` or `j ≥ N`): never panics.
 pub fn window_pearson<const N: usize, const D: usize>(
     x: &[[[f32; D]; N]],
     i: usize,
@@ -132,9 +133,15 @@ pub fn window_pearson<const N: usize, const D: usize>(
     lo: usize,
     hi: usize,
 ) -> f32 {
-    let count = ((hi - lo + 1) * D) as f64;
+    let Some(rows) = x.get(lo..=hi) else {
+        return 0.0;
+    };
+    if i >= N || j >= N || rows.is_empty() {
+        return 0.0;
+    }
+    let count = (rows.len() * D) as f64;
     let (mut si, mut sj) = (0.0f64, 0.0f64);
-    for row in &x[lo..=hi] {
+    for row in rows {
         for k in 0..D {
             si += f64::from(row[i][k]);
             sj += f64::from(row[j][k]);
@@ -142,7 +149,7 @@ pub fn window_pearson<const N: usize, const D: usize>(
     }
     let (mi, mj) = (si / count, sj / count);
     let (mut cov, mut vi, mut vj) = (0.0f64, 0.0f64, 0.0f64);
-    for row in &x[lo..=hi] {
+    for row in rows {
         for k in 0..D {
             let a = f64::from(row[i][k]) - mi;
             let b = f64::from(row[j][k]) - mj;
@@ -412,5 +419,16 @@ mod tests {
         assert!(
             build_dynamic_graphs(&GraphConfig::uniform(), &x, &NodeMask::ALL, &mut short).is_err()
         );
+    }
+
+    /// `window_pearson` is public: arguments outside `x` give 0, never a panic.
+    #[test]
+    fn window_pearson_outside_the_window_is_zero() {
+        let x = random_features(4, 3);
+        assert_eq!(window_pearson(&x, 0, 1, 3, 2), 0.0); // hi < lo
+        assert_eq!(window_pearson(&x, 0, 1, 0, 4), 0.0); // hi past the end
+        assert_eq!(window_pearson(&x, 0, N, 0, 3), 0.0); // node out of range
+        assert_eq!(window_pearson(&x, 0, 1, usize::MAX, usize::MAX), 0.0);
+        assert!(window_pearson(&x, 0, 1, 0, 3).abs() > 0.0);
     }
 }

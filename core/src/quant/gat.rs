@@ -551,12 +551,9 @@ impl<const F: usize, const H: usize> GatLayer<F, H> {
                 scratch.logits[j] = self.to_logit.apply(e);
             }
             let row = &adj.0[i];
-            let weight = |j: usize| {
-                if mask.0[j] && row[j] > 0 {
-                    row[j] as u32
-                } else {
-                    0
-                }
+            let weight = |j: usize| match (mask.0.get(j), row.get(j)) {
+                (Some(true), Some(&r)) if r > 0 => r as u32,
+                _ => 0,
             };
             let any = softmax_row_q15(&scratch.logits, weight, &self.exp, &mut scratch.alpha);
             for o in 0..H {
