@@ -26,6 +26,12 @@
 //! - `indicators`: `[W, 4]` z-scored targets of the indicator head, see
 //!   [`indicator_targets`]
 //! - `label`, `record`: `[W]`
+//! - `raw`: `[W, N, 2048]` the window's band-limited samples at the model rate (0 for an
+//!   absent node): the input of the raw-signal baselines (WDCNN, CoFusion-CNN, TST)
+//! - `spectra`: `[W, N, 16]` each node's spectrum shape ([`crate::physics::spectrum_shape`],
+//!   0 for an absent node): the target of the spectral consistency head (eq. 11)
+//! - `theta`: `[W, 4]` the record's fitted Θ_phys, z-scored (`NaN` where unknown):
+//!   F_map's target (eqs. 23–24), filled by [`Dataset::attach_theta`]
 
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
@@ -37,6 +43,7 @@ use pumptwin_core::graph::{Adjacency, GraphConfig};
 use pumptwin_core::rng::Xoshiro128pp;
 
 use crate::data::manifest::{read_manifest, ManifestEntry, ManifestError};
+use crate::data::preprocess::MODEL_FS_HZ;
 use crate::data::preprocess::{preprocess, PreprocessConfig};
 use crate::data::record::{load_entry, Channel, EntryError, Recording};
 use crate::data::windows::{build_split, Protocol, RecordMeta, Split, SplitError, WindowConfig};
@@ -45,6 +52,7 @@ use crate::featurize::{
     feature_config, fit_norm, window_features, window_graphs, MaskCounts, WindowFeatures, SEGMENTS,
     WINDOW,
 };
+use crate::physics::{spectrum_shape, Theta, N_THETA, SPEC_BANDS};
 
 /// Node channels, in node order.
 pub const NODES: [&str; N_NODES] = ["DE", "FE", "BA"];
@@ -196,25 +204,41 @@ pub fn featurize_windows(
     windows: &[(WindowRef, usize)],
     noise: Option<NoiseSpec>,
     counts: &mut MaskCounts,
-) -> Vec<WindowFeatures<N_NODES>> {
+) -> (Vec<WindowFeatures<N_NODES>>, Vec<f32>) {
     let orders = BearingGeometry::CWRU_6205_DE.orders();
     let records: BTreeSet<usize> = windows.iter().map(|(w, _)| w.record).collect();
     let mut out: Vec<Option<WindowFeatures<N_NODES>>> = vec![None; windows.len()];
+    let mut raw = vec![0.0f32; windows.len() * Dataset::RAW_PER_WINDOW];
     for record in records {
         let r = &corpus.records[record];
         let cfg = feature_config(r.rec.fs_hz, r.shaft_hz, orders);
         let positions: Vec<usize> = (0..windows.len())
             .filter(|&k| windows[k].0.record == record)
             .collect();
+        let copy_raw = |rec: &Recording, starts: &[usize], raw: &mut [f32]| {
+            for (&k, &start) in positions.iter().zip(starts) {
+                for (i, name) in NODES.iter().enumerate() {
+                    if let Some(x) = rec
+                        .channel(name)
+                        .and_then(|c| c.samples.get(start..start + WINDOW))
+                    {
+                        let o = k * Dataset::RAW_PER_WINDOW + i * WINDOW;
+                        raw[o..o + WINDOW].copy_from_slice(x);
+                    }
+                }
+            }
+        };
         let features = match noise {
             None => {
                 let starts: Vec<usize> = positions.iter().map(|&k| windows[k].0.start).collect();
+                copy_raw(&r.rec, &starts, &mut raw);
                 window_features(&r.rec, &NODES, &cfg, &starts, counts)
             }
             Some(spec) => {
                 // The noisy windows laid end to end in a scratch recording.
                 let noisy = noisy_windows(&r.rec, windows, &positions, spec);
                 let starts: Vec<usize> = (0..positions.len()).map(|k| k * WINDOW).collect();
+                copy_raw(&noisy, &starts, &mut raw);
                 let mut f = window_features(&noisy, &NODES, &cfg, &starts, counts);
                 for (w, &k) in f.iter_mut().zip(&positions) {
                     w.start = windows[k].0.start;
@@ -226,9 +250,11 @@ pub fn featurize_windows(
             out[k] = Some(w);
         }
     }
-    out.into_iter()
+    let features = out
+        .into_iter()
         .map(|w| w.expect("every window belongs to a record"))
-        .collect()
+        .collect();
+    (features, raw)
 }
 
 /// A recording holding the windows at `positions` end to end, each with noise at
@@ -399,6 +425,14 @@ pub struct Dataset {
     pub label: Vec<i64>,
     /// `[W]` record index of each window.
     pub record: Vec<usize>,
+    /// `[W, N, WINDOW]` raw samples (empty when not built, e.g. by `predict` for a
+    /// feature model).
+    pub raw: Vec<f32>,
+    /// `[W, N, SPEC_BANDS]` node spectrum shapes (empty when `raw` is).
+    pub spectra: Vec<f32>,
+    /// `[W, N_THETA]` z-scored Θ_phys targets, `NaN` where unknown (empty until
+    /// [`Dataset::attach_theta`]).
+    pub theta: Vec<f32>,
 }
 
 impl Dataset {
@@ -406,6 +440,48 @@ impl Dataset {
     pub const X_PER_WINDOW: usize = STEPS * N_NODES * FEATURES;
     /// Values of `adj` per window.
     pub const ADJ_PER_WINDOW: usize = STEPS * N_NODES * N_NODES;
+    /// Values of `raw` per window.
+    pub const RAW_PER_WINDOW: usize = N_NODES * WINDOW;
+    /// Values of `spectra` per window.
+    pub const SPEC_PER_WINDOW: usize = N_NODES * SPEC_BANDS;
+
+    /// Whether the raw samples (and spectra) are present for every window.
+    pub fn has_signals(&self) -> bool {
+        self.raw.len() == self.len() * Self::RAW_PER_WINDOW
+            && self.spectra.len() == self.len() * Self::SPEC_PER_WINDOW
+    }
+
+    /// Append raw samples `[N, WINDOW]` of the last pushed window and its spectra
+    /// (computed here; zero for absent nodes).
+    pub fn push_signals(&mut self, raw: &[f32], mask: &[bool; N_NODES], fs_hz: f32) {
+        debug_assert_eq!(raw.len(), Self::RAW_PER_WINDOW);
+        self.raw.extend_from_slice(raw);
+        for (i, present) in mask.iter().enumerate() {
+            if *present {
+                let s = spectrum_shape(&raw[i * WINDOW..(i + 1) * WINDOW], fs_hz);
+                self.spectra.extend_from_slice(&s);
+            } else {
+                self.spectra.extend_from_slice(&[0.0; SPEC_BANDS]);
+            }
+        }
+    }
+
+    /// Set every window's Θ target from its record's (z-scored with `mean`, `std`;
+    /// `NaN` for records without one).
+    pub fn attach_theta(
+        &mut self,
+        thetas: &std::collections::BTreeMap<usize, Theta>,
+        mean: &[f32; N_THETA],
+        std: &[f32; N_THETA],
+    ) {
+        self.theta.clear();
+        for r in &self.record {
+            let t = thetas.get(r).copied().unwrap_or([f32::NAN; N_THETA]);
+            for k in 0..N_THETA {
+                self.theta.push((t[k] - mean[k]) / std[k]);
+            }
+        }
+    }
 
     /// Number of windows.
     pub fn len(&self) -> usize {
@@ -467,6 +543,16 @@ impl Dataset {
                 .extend_from_slice(&self.indicators[k * N_INDICATORS..(k + 1) * N_INDICATORS]);
             out.label.push(self.label[k]);
             out.record.push(self.record[k]);
+            if self.has_signals() {
+                let (rw, sw) = (Self::RAW_PER_WINDOW, Self::SPEC_PER_WINDOW);
+                out.raw.extend_from_slice(&self.raw[k * rw..(k + 1) * rw]);
+                out.spectra
+                    .extend_from_slice(&self.spectra[k * sw..(k + 1) * sw]);
+            }
+            if self.theta.len() == self.len() * N_THETA {
+                out.theta
+                    .extend_from_slice(&self.theta[k * N_THETA..(k + 1) * N_THETA]);
+            }
         }
         out
     }
@@ -481,6 +567,7 @@ impl Dataset {
 /// indicator targets, in the order of `windows`.
 pub fn assemble(
     raw: &[WindowFeatures<N_NODES>],
+    signals: &[f32],
     windows: &[(WindowRef, usize)],
     norm: &FeatureNorm,
     indicator_norm: Option<&IndicatorNorm>,
@@ -488,7 +575,7 @@ pub fn assemble(
 ) -> Result<(Dataset, Vec<[f32; N_INDICATORS]>), DatasetError> {
     let mut ds = Dataset::default();
     let mut unscaled = Vec::with_capacity(raw.len());
-    for (w, (wref, label)) in raw.iter().zip(windows) {
+    for (k, (w, (wref, label))) in raw.iter().zip(windows).enumerate() {
         let (x, a) = window_graphs(w, norm, graph).map_err(|source| DatasetError::Graph {
             record: wref.record,
             start: wref.start,
@@ -498,6 +585,10 @@ pub fn assemble(
         unscaled.push(ind);
         let scaled = indicator_norm.map_or(ind, |n| n.apply(&ind));
         ds.push(&x, &a, &w.mask.0, &scaled, *label, wref.record);
+        let rw = Dataset::RAW_PER_WINDOW;
+        if let Some(sig) = signals.get(k * rw..(k + 1) * rw) {
+            ds.push_signals(sig, &w.mask.0, MODEL_FS_HZ);
+        }
     }
     Ok((ds, unscaled))
 }
@@ -534,25 +625,34 @@ impl ProtocolData {
         protocol: Protocol,
         windows: &WindowConfig,
         norms: Option<(FeatureNorm, IndicatorNorm)>,
+        graph: GraphConfig<N_NODES>,
     ) -> Result<Self, DatasetError> {
         let split = corpus.split(protocol, windows)?;
         if split.train.is_empty() {
             return Err(DatasetError::EmptyTrain(protocol));
         }
         let t0 = Instant::now();
-        let graph = GraphConfig::<N_NODES>::uniform();
         let mut mask_counts = MaskCounts::default();
-        let raw_train = featurize_windows(corpus, &split.train, None, &mut mask_counts);
-        let raw_test = featurize_windows(corpus, &split.test, None, &mut mask_counts);
+        let (raw_train, sig_train) =
+            featurize_windows(corpus, &split.train, None, &mut mask_counts);
+        let (raw_test, sig_test) = featurize_windows(corpus, &split.test, None, &mut mask_counts);
         // Fitted on the training side only; the test side reuses it.
         let norm = norms.map_or_else(|| fit_norm(&raw_train), |(n, _)| n);
-        let (mut train, train_ind) = assemble(&raw_train, &split.train, &norm, None, &graph)?;
+        let (mut train, train_ind) =
+            assemble(&raw_train, &sig_train, &split.train, &norm, None, &graph)?;
         let indicator_norm = norms.map_or_else(|| IndicatorNorm::fit(&train_ind), |(_, n)| n);
         train.indicators = train_ind
             .iter()
             .flat_map(|r| indicator_norm.apply(r))
             .collect();
-        let (test, _) = assemble(&raw_test, &split.test, &norm, Some(&indicator_norm), &graph)?;
+        let (test, _) = assemble(
+            &raw_test,
+            &sig_test,
+            &split.test,
+            &norm,
+            Some(&indicator_norm),
+            &graph,
+        )?;
         Ok(Self {
             protocol,
             split,
@@ -570,14 +670,16 @@ impl ProtocolData {
     /// the core, with the *training* normalizations).
     pub fn noisy_test(&self, corpus: &Corpus, noise: NoiseSpec) -> Result<Dataset, DatasetError> {
         let mut counts = MaskCounts::default();
-        let raw = featurize_windows(corpus, &self.split.test, Some(noise), &mut counts);
-        let (ds, _) = assemble(
+        let (raw, signals) = featurize_windows(corpus, &self.split.test, Some(noise), &mut counts);
+        let (mut ds, _) = assemble(
             &raw,
+            &signals,
             &self.split.test,
             &self.norm,
             Some(&self.indicator_norm),
             &self.graph,
         )?;
+        ds.theta = self.test.theta.clone();
         Ok(ds)
     }
 

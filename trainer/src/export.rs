@@ -416,7 +416,15 @@ pub fn run_export(args: &ExportArgs) -> Result<()> {
     );
     let (cfg, norms) = crate::training::load_trained_config(&args.model)?;
     let protocol = crate::training::parse_protocol(&cfg.protocol)?;
-    let (corpus, data) = crate::training::load_protocol(&args.data, protocol, norms)?;
+    if cfg.arch != crate::training::ARCH {
+        anyhow::bail!(
+            "only the DS-STGAT has an int8 network in the core; {} is a {} model",
+            args.model.display(),
+            cfg.arch
+        );
+    }
+    let (corpus, data) =
+        crate::training::load_protocol(&args.data, protocol, norms, cfg.graph_config())?;
     ensure!(
         cfg.classes.is_empty() || cfg.classes == data.classes(),
         "the model's classes {:?} differ from the data's {:?}",

@@ -243,6 +243,10 @@ pub struct DsStgatOutput {
     pub logits: Tensor<2>,
     /// Indicator predictions `F` (eq. 13), `[B, 4]`, in z-score units of the targets.
     pub indicators: Tensor<2>,
+    /// The pooled state embedding `g` (`h` of eq. 23), `[B, H]`.
+    pub embedding: Tensor<2>,
+    /// Each node's final GRU state `s_T,i` (`h_i` of eq. 11), `[B, N, H]`.
+    pub node_states: Tensor<3>,
 }
 
 /// The DS-STGAT (see the module docs).
@@ -289,11 +293,14 @@ impl DsStgat {
             )
             .reshape([b, t, n, d]); // [B, T, N, H]
         let s = self.gru.forward(u); // [B, T, N, H]
+        let node_states = s.clone().narrow(1, t - 1, 1).reshape([b, n, d]); // [B, N, H]
         let (g, _) = self.pool.forward(s, mask); // [B, H]
-        let z = self.compress.forward(g); // [B, Z]  (12)
+        let z = self.compress.forward(g.clone()); // [B, Z]  (12)
         DsStgatOutput {
             logits: self.classifier.forward(z.clone()), // [B, C]  (8)
             indicators: self.indicator.forward(z),      // [B, 4]  (13)
+            embedding: g,
+            node_states,
         }
     }
 }
@@ -394,5 +401,51 @@ mod tests {
         let out2 = run(x2);
         assert_eq!(values(out.logits), values(out2.logits));
         assert_eq!(values(out.indicators), values(out2.indicators));
+    }
+}
+
+/// The co-adaptation heads (eqs. 11 and 23–24), kept apart from [`DsStgat`] so the
+/// int8 export and older weight files are untouched (saved as `physics_heads.bpk`).
+///
+/// ```text
+/// Ŝ_i    = W_s s_T,i + b_s                          spectral head, compared with the
+///                                                   measured node spectrum shape (L_phy, eq. 11)
+/// Θ̂      = W_2 tanh(W_1 g + b_1) + b_2              F_map (eq. 24), compared with the
+///                                                   closed loop's fitted Θ (z-scored)
+/// ```
+///
+/// # Shapes
+/// - `node_states`: `[B, N, H]` → spectra `[B, N, K]`; `g`: `[B, H]` → Θ̂ `[B, P]`
+#[derive(Module, Debug)]
+pub struct PhysicsHeads {
+    /// `W_s, b_s`: `[H, K]`.
+    pub spectral: Linear,
+    /// `W_1, b_1`: `[H, 16]`.
+    pub fmap_hidden: Linear,
+    /// `W_2, b_2`: `[16, P]`.
+    pub fmap_out: Linear,
+}
+
+impl PhysicsHeads {
+    /// Width of F_map's hidden layer.
+    pub const FMAP_HIDDEN: usize = 16;
+
+    /// Fresh heads for embeddings of width `hidden`, `bands` spectrum bands and
+    /// `theta` parameters.
+    pub fn new(hidden: usize, bands: usize, theta: usize, device: &Device) -> Self {
+        Self {
+            spectral: LinearConfig::new(hidden, bands).init(device),
+            fmap_hidden: LinearConfig::new(hidden, Self::FMAP_HIDDEN).init(device),
+            fmap_out: LinearConfig::new(Self::FMAP_HIDDEN, theta).init(device),
+        }
+    }
+
+    /// Node spectrum shapes and Θ̂ (see the type's docs).
+    pub fn forward(&self, embedding: Tensor<2>, node_states: Tensor<3>) -> (Tensor<3>, Tensor<2>) {
+        let spectra = self.spectral.forward(node_states); // [B, N, K]
+        let theta = self
+            .fmap_out
+            .forward(tanh(self.fmap_hidden.forward(embedding))); // [B, P]  (24)
+        (spectra, theta)
     }
 }

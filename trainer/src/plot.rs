@@ -47,7 +47,7 @@ pub enum PlotError {
 
 static FONT: Once = Once::new();
 
-fn register_font() {
+pub(crate) fn register_font() {
     FONT.call_once(|| {
         // DejaVu Sans from the `dejavu` crate; a failure leaves plotters without text
         // (it would then error at draw time, which `line_plot` reports).

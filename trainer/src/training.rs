@@ -54,16 +54,63 @@ use pumptwin_core::features::{FeatureNorm, FEATURE_DIM};
 use pumptwin_core::rng::Xoshiro128pp;
 use serde::Serialize;
 
+use crate::baselines::{CoFusionCnn, GcnGru, Tst, Wdcnn};
 use crate::data::preprocess::PreprocessConfig;
 use crate::data::windows::{Protocol, WindowConfig};
 use crate::dataset::{
     Corpus, Dataset, IndicatorNorm, ProtocolData, FEATURES, N_INDICATORS, N_NODES, STEPS,
 };
-use crate::metrics::{evaluate, MetricsReport};
-use crate::model::{DsStgat, DsStgatConfig};
+use crate::featurize::WINDOW;
+use crate::metrics::{evaluate_with, MetricsReport};
+use crate::model::{DsStgat, DsStgatConfig, PhysicsHeads};
+use crate::physics::{PhysicsEmbedding, N_THETA, SIM_CLASSES, SPEC_BANDS};
+use pumptwin_core::graph::GraphConfig;
 
-/// Architecture name written to reports.
+/// Architecture name of the DS-STGAT in reports.
 pub const ARCH: &str = "dsstgat";
+
+/// The architectures `pumptwin train --arch` builds (paper §6.3.1 and WDCNN).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Arch {
+    /// DS-STGAT (this paper).
+    #[value(name = "dsstgat")]
+    DsStgat,
+    /// GCN + GRU on a static graph.
+    #[value(name = "gcn-gru")]
+    GcnGru,
+    /// Multi-branch 1-D CNN with weighted fusion.
+    #[value(name = "cofusion-cnn")]
+    CoFusionCnn,
+    /// Time-series transformer.
+    #[value(name = "tst")]
+    Tst,
+    /// Wide first-layer kernel CNN (Zhang et al. 2017).
+    #[value(name = "wdcnn")]
+    Wdcnn,
+}
+
+/// The DS-STGAT ablations (paper §6.3.2).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Ablation {
+    /// The full model: physics embedding, co-adaptation, dynamic graph.
+    #[value(name = "none")]
+    None,
+    /// No `L_phy` and no F_map (eqs. 10–11, 23–24 switched off).
+    #[value(name = "no-coadapt")]
+    NoCoadapt,
+    /// No simulated pre-training and a uniform edge prior (eq. 9 switched off).
+    #[value(name = "no-physics")]
+    NoPhysics,
+    /// A fixed adjacency (the physics prior alone, β = 1) instead of eqs. 1–2.
+    #[value(name = "static-graph")]
+    StaticGraph,
+}
+
+/// The name of a clap value (`Arch`, `Ablation`).
+pub fn value_name<T: clap::ValueEnum>(v: &T) -> String {
+    v.to_possible_value()
+        .map_or_else(String::new, |p| p.get_name().to_string())
+}
 
 /// Hyper-parameters of a training run; saved as `config.json` beside the weights.
 #[derive(Config, Debug)]
@@ -109,6 +156,28 @@ pub struct TrainConfig {
     /// with a failed channel must.
     #[config(default = 0.2)]
     pub node_dropout: f64,
+    /// Architecture (`dsstgat`, `gcn-gru`, `cofusion-cnn`, `tst`, `wdcnn`).
+    #[config(default = "String::from(\"dsstgat\")")]
+    pub arch: String,
+    /// DS-STGAT ablation (`none`, `no-coadapt`, `no-physics`, `static-graph`).
+    #[config(default = "String::from(\"none\")")]
+    pub ablation: String,
+    /// Weight `λ_phy` of the spectral consistency loss (eq. 11).
+    #[config(default = 0.1)]
+    pub lambda_phy: f64,
+    /// Weight of F_map's Θ loss (eqs. 23–24).
+    #[config(default = 0.1)]
+    pub lambda_map: f64,
+    /// Epochs of pre-training on the simulated windows (eq. 9).
+    #[config(default = 15)]
+    pub pretrain_epochs: usize,
+    /// Graph prior `P`, `N·N` row-major (empty: the uniform prior). Filled in by
+    /// `train` from the physics embedding.
+    #[config(default = "Vec::new()")]
+    pub graph_prior: Vec<f32>,
+    /// Static graph (`β = 1`: the prior alone).
+    #[config(default = false)]
+    pub graph_static: bool,
     /// Protocol trained on (filled in by `train`).
     #[config(default = "String::from(\"time-block\")")]
     pub protocol: String,
@@ -129,6 +198,55 @@ impl TrainConfig {
         lo + 0.5 * (self.learning_rate - lo) * (1.0 + (std::f64::consts::PI * progress).cos())
     }
 
+    /// The architecture.
+    pub fn arch(&self) -> Result<Arch> {
+        <Arch as clap::ValueEnum>::from_str(&self.arch, false)
+            .map_err(|_| anyhow::anyhow!("unknown architecture {:?}", self.arch))
+    }
+
+    /// The ablation.
+    pub fn ablation(&self) -> Result<Ablation> {
+        <Ablation as clap::ValueEnum>::from_str(&self.ablation, false)
+            .map_err(|_| anyhow::anyhow!("unknown ablation {:?}", self.ablation))
+    }
+
+    /// The name written to reports: the architecture, with the ablation if any.
+    pub fn report_name(&self) -> String {
+        if self.ablation == "none" {
+            self.arch.clone()
+        } else {
+            format!("{}-{}", self.arch, self.ablation)
+        }
+    }
+
+    /// Whether eq. 9 applies (DS-STGAT, not `no-physics`).
+    pub fn uses_physics_embedding(&self) -> bool {
+        self.arch == ARCH && self.ablation != "no-physics"
+    }
+
+    /// Whether the co-adaptation heads apply (DS-STGAT, not `no-coadapt`).
+    pub fn uses_coadaptation(&self) -> bool {
+        self.arch == ARCH && self.ablation != "no-coadapt"
+    }
+
+    /// The graph construction of this run (dynamic on the stored prior, or static).
+    pub fn graph_config(&self) -> GraphConfig<N_NODES> {
+        let mut prior = [[1.0f32; N_NODES]; N_NODES];
+        if self.graph_prior.len() == N_NODES * N_NODES {
+            for (k, v) in self.graph_prior.iter().enumerate() {
+                prior[k / N_NODES][k % N_NODES] = *v;
+            }
+        }
+        if self.graph_static {
+            GraphConfig::static_prior(prior)
+        } else {
+            GraphConfig {
+                prior,
+                ..GraphConfig::uniform()
+            }
+        }
+    }
+
     /// The model's dimensions for `classes` classes.
     pub fn model_config(&self, classes: usize) -> DsStgatConfig {
         DsStgatConfig::new(FEATURES, classes)
@@ -143,6 +261,8 @@ impl TrainConfig {
 /// # Shapes
 /// - `x`: `[B, T, N, F]`; `adj`: `[B, T, N, N]`; `mask`: `[B, N]` (1.0 present)
 /// - `labels`: `[B]`; `indicators`: `[B, 4]`
+/// - `raw`: `[B, N, 2048]` (raw-signal models only); `spectra`: `[B, N, K]` and
+///   `theta`, `theta_known`: `[B, P]` (physics heads only)
 #[derive(Debug, Clone)]
 pub struct Batch {
     /// Node features.
@@ -155,11 +275,34 @@ pub struct Batch {
     pub labels: Tensor<1, Int>,
     /// Indicator targets (z-scored).
     pub indicators: Tensor<2>,
+    /// Raw samples, when asked for.
+    pub raw: Option<Tensor<3>>,
+    /// Node spectrum shapes, when asked for.
+    pub spectra: Option<Tensor<3>>,
+    /// Θ targets (z-scored, 0 where unknown), when asked for.
+    pub theta: Option<Tensor<2>>,
+    /// 1.0 where the Θ target is known.
+    pub theta_known: Option<Tensor<2>>,
+}
+
+/// Which optional parts a [`Batch`] carries.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct BatchParts {
+    /// Raw samples (raw-signal baselines).
+    pub raw: bool,
+    /// Spectra and Θ targets (physics heads).
+    pub physics: bool,
 }
 
 impl Batch {
-    /// The windows `idx` of `ds` on `device`.
+    /// The windows `idx` of `ds` on `device` (features, graphs, labels, indicators).
     pub fn new(ds: &Dataset, idx: &[usize], device: &Device) -> Self {
+        Self::with_parts(ds, idx, BatchParts::default(), device)
+    }
+
+    /// As [`Batch::new`], with the optional parts in `parts` (zeros where `ds` lacks
+    /// them).
+    pub fn with_parts(ds: &Dataset, idx: &[usize], parts: BatchParts, device: &Device) -> Self {
         let b = idx.len();
         let (xw, aw) = (Dataset::X_PER_WINDOW, Dataset::ADJ_PER_WINDOW);
         let mut x = Vec::with_capacity(b * xw);
@@ -180,12 +323,55 @@ impl Batch {
             labels.push(ds.label[k]);
             ind.extend_from_slice(&ds.indicators[k * N_INDICATORS..(k + 1) * N_INDICATORS]);
         }
+        let gather = |src: &[f32], per: usize| -> Vec<f32> {
+            let mut v = Vec::with_capacity(b * per);
+            for &k in idx {
+                match src.get(k * per..(k + 1) * per) {
+                    Some(s) => v.extend_from_slice(s),
+                    None => v.extend(std::iter::repeat_n(0.0, per)),
+                }
+            }
+            v
+        };
+        let raw = parts.raw.then(|| {
+            let v = gather(&ds.raw, Dataset::RAW_PER_WINDOW);
+            Tensor::from_data(TensorData::new(v, [b, N_NODES, WINDOW]), device)
+        });
+        let (spectra, theta, theta_known) = if parts.physics {
+            let sp = gather(&ds.spectra, Dataset::SPEC_PER_WINDOW);
+            let th = gather(&ds.theta, N_THETA);
+            let known: Vec<f32> = th
+                .iter()
+                .map(|v| if v.is_finite() { 1.0 } else { 0.0 })
+                .collect();
+            let th: Vec<f32> = th
+                .iter()
+                .map(|v| if v.is_finite() { *v } else { 0.0 })
+                .collect();
+            (
+                Some(Tensor::from_data(
+                    TensorData::new(sp, [b, N_NODES, SPEC_BANDS]),
+                    device,
+                )),
+                Some(Tensor::from_data(TensorData::new(th, [b, N_THETA]), device)),
+                Some(Tensor::from_data(
+                    TensorData::new(known, [b, N_THETA]),
+                    device,
+                )),
+            )
+        } else {
+            (None, None, None)
+        };
         Self {
             x: Tensor::from_data(TensorData::new(x, [b, STEPS, N_NODES, FEATURES]), device),
             adj: Tensor::from_data(TensorData::new(adj, [b, STEPS, N_NODES, N_NODES]), device),
             mask: Tensor::from_data(TensorData::new(mask, [b, N_NODES]), device),
             labels: Tensor::from_data(TensorData::new(labels, [b]), device),
             indicators: Tensor::from_data(TensorData::new(ind, [b, N_INDICATORS]), device),
+            raw,
+            spectra,
+            theta,
+            theta_known,
         }
     }
 }
@@ -221,17 +407,43 @@ pub fn loss_terms(
     sample_weights: Tensor<1>,
     lambda_indicator: f64,
 ) -> (Tensor<1>, Tensor<1>, Tensor<1>) {
-    let b = labels.dims()[0];
-    let logp = log_softmax(logits, 1); // [B, C]
-    let picked = logp.gather(1, labels.reshape([b, 1])).reshape([b]); // [B]  log ŷ_y
-    let ce = (picked * sample_weights).sum().neg(); // (14), weighted mean
+    let ce = weighted_ce(logits, labels, sample_weights);
     let mse = (indicators - targets).square().mean(); // eq. 13 regression
     let total = ce.clone() + mse.clone().mul_scalar(lambda_indicator);
     (total, ce, mse)
 }
 
+/// Weighted cross-entropy (eq. 14), `sample_weights` summing to 1.
+fn weighted_ce(logits: Tensor<2>, labels: Tensor<1, Int>, sample_weights: Tensor<1>) -> Tensor<1> {
+    let b = labels.dims()[0];
+    let logp = log_softmax(logits, 1); // [B, C]
+    let picked = logp.gather(1, labels.reshape([b, 1])).reshape([b]); // [B]  log ŷ_y
+    (picked * sample_weights).sum().neg()
+}
+
+/// `L_phy` (eq. 11): mean squared error of the predicted node spectrum shapes over
+/// present nodes.
+///
+/// # Shapes
+/// - `pred`, `target`: `[B, N, K]`; `mask`: `[B, N]`
+pub fn spectral_loss(pred: Tensor<3>, target: Tensor<3>, mask: Tensor<2>) -> Tensor<1> {
+    let [b, n, k] = pred.dims();
+    let m = mask.reshape([b, n, 1]);
+    let count = m.clone().sum().clamp_min(1.0).mul_scalar(k as f32);
+    ((pred - target).square() * m).sum() / count
+}
+
+/// F_map's loss (eqs. 23–24): mean squared error of Θ̂ over the known targets.
+///
+/// # Shapes
+/// - `pred`, `target`, `known`: `[B, P]`
+pub fn theta_loss(pred: Tensor<2>, target: Tensor<2>, known: Tensor<2>) -> Tensor<1> {
+    let count = known.clone().sum().clamp_min(1.0);
+    ((pred - target).square() * known).sum() / count
+}
+
 /// Figures of one epoch.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, serde::Deserialize)]
 pub struct EpochStats {
     /// 1-based epoch.
     pub epoch: usize,
@@ -241,6 +453,10 @@ pub struct EpochStats {
     pub cross_entropy: f64,
     /// Mean indicator MSE.
     pub indicator_mse: f64,
+    /// Mean `L_phy` (0 without physics heads).
+    pub spectral_loss: f64,
+    /// Mean F_map loss (0 without physics heads).
+    pub theta_loss: f64,
     /// Training accuracy over the epoch's batches (as they were predicted).
     pub train_accuracy: f64,
     /// Test accuracy after the epoch (monitoring only).
@@ -249,36 +465,276 @@ pub struct EpochStats {
     pub seconds: f64,
 }
 
+/// What any classifier of the comparison returns for a batch.
+#[derive(Debug, Clone)]
+pub struct NetOutput {
+    /// Class logits `[B, C]`.
+    pub logits: Tensor<2>,
+    /// Indicator predictions `[B, 4]` (DS-STGAT only).
+    pub indicators: Option<Tensor<2>>,
+    /// The state embedding `[B, H]` (t-SNE map, F_map input).
+    pub embedding: Tensor<2>,
+    /// Final node states `[B, N, H]` (DS-STGAT only; the spectral head's input).
+    pub node_states: Option<Tensor<3>>,
+}
+
+/// A classifier of windows that the generic training loop can train.
+pub trait Net: Module {
+    /// Whether it reads `Batch::raw`.
+    const RAW: bool;
+    /// Forward pass on a batch.
+    fn output(&self, b: &Batch) -> NetOutput;
+}
+
+impl Net for DsStgat {
+    const RAW: bool = false;
+    fn output(&self, b: &Batch) -> NetOutput {
+        let o = self.forward(b.x.clone(), b.adj.clone(), b.mask.clone());
+        NetOutput {
+            logits: o.logits,
+            indicators: Some(o.indicators),
+            embedding: o.embedding,
+            node_states: Some(o.node_states),
+        }
+    }
+}
+
+impl Net for GcnGru {
+    const RAW: bool = false;
+    fn output(&self, b: &Batch) -> NetOutput {
+        let (logits, embedding) = self.forward(b.x.clone(), b.mask.clone());
+        NetOutput {
+            logits,
+            indicators: None,
+            embedding,
+            node_states: None,
+        }
+    }
+}
+
+/// The raw samples of a batch with absent (or dropped) nodes zeroed.
+fn masked_raw(b: &Batch) -> Tensor<3> {
+    let raw = b
+        .raw
+        .clone()
+        .expect("raw-signal models are given batches with raw samples");
+    let [n_b, n, _] = raw.dims();
+    raw * b.mask.clone().reshape([n_b, n, 1])
+}
+
+impl Net for Wdcnn {
+    const RAW: bool = true;
+    fn output(&self, b: &Batch) -> NetOutput {
+        let (logits, embedding) = self.forward(masked_raw(b));
+        NetOutput {
+            logits,
+            indicators: None,
+            embedding,
+            node_states: None,
+        }
+    }
+}
+
+impl Net for CoFusionCnn {
+    const RAW: bool = true;
+    fn output(&self, b: &Batch) -> NetOutput {
+        let (logits, embedding) = self.forward(masked_raw(b), b.mask.clone());
+        NetOutput {
+            logits,
+            indicators: None,
+            embedding,
+            node_states: None,
+        }
+    }
+}
+
+impl Net for Tst {
+    const RAW: bool = true;
+    fn output(&self, b: &Batch) -> NetOutput {
+        let (logits, embedding) = self.forward(masked_raw(b));
+        NetOutput {
+            logits,
+            indicators: None,
+            embedding,
+            node_states: None,
+        }
+    }
+}
+
+/// A trained (or loaded) network of any architecture.
+// One or two of these exist per run; boxing the largest would only add indirection.
+#[allow(clippy::large_enum_variant)]
+#[derive(Debug, Clone)]
+pub enum Network {
+    /// DS-STGAT (any ablation).
+    DsStgat(DsStgat),
+    /// GCN-GRU baseline.
+    GcnGru(GcnGru),
+    /// WDCNN baseline.
+    Wdcnn(Wdcnn),
+    /// CoFusion-CNN baseline.
+    CoFusionCnn(CoFusionCnn),
+    /// Time-series transformer baseline.
+    Tst(Tst),
+}
+
+/// Call `$body` with `$m` bound to the network inside `$net`.
+macro_rules! with_net {
+    ($net:expr, $m:ident => $body:expr) => {
+        match $net {
+            Network::DsStgat($m) => $body,
+            Network::GcnGru($m) => $body,
+            Network::Wdcnn($m) => $body,
+            Network::CoFusionCnn($m) => $body,
+            Network::Tst($m) => $body,
+        }
+    };
+}
+
+impl Network {
+    /// A fresh network of `cfg.arch` for `classes` classes on `device`.
+    pub fn init(cfg: &TrainConfig, classes: usize, device: &Device) -> Result<Self> {
+        Ok(match cfg.arch()? {
+            Arch::DsStgat => Self::DsStgat(cfg.model_config(classes).init(device)),
+            Arch::GcnGru => Self::GcnGru(GcnGru::new(FEATURES, cfg.hidden, classes, device)),
+            Arch::Wdcnn => Self::Wdcnn(Wdcnn::new(N_NODES, classes, device)),
+            Arch::CoFusionCnn => Self::CoFusionCnn(CoFusionCnn::new(N_NODES, classes, device)),
+            Arch::Tst => Self::Tst(Tst::new(N_NODES, classes, device)),
+        })
+    }
+
+    /// Whether the network reads raw samples.
+    pub fn raw(&self) -> bool {
+        fn raw_of<M: Net>(_: &M) -> bool {
+            M::RAW
+        }
+        with_net!(self, m => raw_of(m))
+    }
+
+    /// Inference copy (`Module::valid`).
+    pub fn valid(&self) -> Self {
+        match self {
+            Self::DsStgat(m) => Self::DsStgat(m.valid()),
+            Self::GcnGru(m) => Self::GcnGru(m.valid()),
+            Self::Wdcnn(m) => Self::Wdcnn(m.valid()),
+            Self::CoFusionCnn(m) => Self::CoFusionCnn(m.valid()),
+            Self::Tst(m) => Self::Tst(m.valid()),
+        }
+    }
+
+    /// Forward pass.
+    pub fn output(&self, b: &Batch) -> NetOutput {
+        with_net!(self, m => m.output(b))
+    }
+
+    /// Parameters.
+    pub fn num_params(&self) -> usize {
+        with_net!(self, m => m.num_params())
+    }
+
+    /// Save the weights (burnpack).
+    pub fn save(&self, path: &Path) -> Result<()> {
+        with_net!(self, m => m.clone().save_file(path))
+            .with_context(|| format!("cannot write {}", path.display()))
+    }
+
+    /// Load weights saved by [`Network::save`] into this (freshly initialized) network.
+    pub fn load(self, path: &Path) -> Result<Self> {
+        let ctx = || format!("cannot load {}", path.display());
+        Ok(match self {
+            Self::DsStgat(m) => Self::DsStgat(m.try_load_file(path).with_context(ctx)?),
+            Self::GcnGru(m) => Self::GcnGru(m.try_load_file(path).with_context(ctx)?),
+            Self::Wdcnn(m) => Self::Wdcnn(m.try_load_file(path).with_context(ctx)?),
+            Self::CoFusionCnn(m) => Self::CoFusionCnn(m.try_load_file(path).with_context(ctx)?),
+            Self::Tst(m) => Self::Tst(m.try_load_file(path).with_context(ctx)?),
+        })
+    }
+}
+
 /// A trained model and how it got there.
 #[derive(Debug)]
 pub struct TrainOutcome {
-    /// The model after the last epoch (autodiff device; call `.valid()` to infer).
-    pub model: DsStgat,
+    /// The network after the last epoch (autodiff device; `.valid()` to infer).
+    pub network: Network,
+    /// The co-adaptation heads (DS-STGAT without `no-coadapt`).
+    pub heads: Option<PhysicsHeads>,
     /// Per-epoch figures.
     pub history: Vec<EpochStats>,
-    /// Wall time of the whole loop (steps and monitoring), seconds.
+    /// Wall time of the whole loop (pre-training, steps and monitoring), seconds.
     pub train_seconds: f64,
 }
 
-/// Class predictions of `model` (an inference model, from `.valid()`) on `ds`, with
-/// inputs built on `device` (a device without autodiff).
-pub fn predict(model: &DsStgat, ds: &Dataset, batch_size: usize, device: &Device) -> Vec<usize> {
+/// Outputs of an inference network over a data set, in window order.
+#[derive(Debug, Clone, Default)]
+pub struct Inference {
+    /// Predicted class per window.
+    pub classes: Vec<usize>,
+    /// Embedding per window.
+    pub embeddings: Vec<Vec<f32>>,
+    /// Predicted spectrum shapes `[W, N, K]` (with heads).
+    pub spectra: Vec<f32>,
+    /// Predicted Θ (z-scored) `[W, P]` (with heads).
+    pub theta: Vec<f32>,
+}
+
+/// Run an inference network (and heads) over `ds` in batches on `device` (a device
+/// without autodiff).
+pub fn infer(
+    net: &Network,
+    heads: Option<&PhysicsHeads>,
+    ds: &Dataset,
+    batch_size: usize,
+    device: &Device,
+) -> Inference {
+    let parts = BatchParts {
+        raw: net.raw(),
+        physics: false,
+    };
     let idx: Vec<usize> = (0..ds.len()).collect();
-    let mut out = Vec::with_capacity(ds.len());
+    let mut out = Inference::default();
     for chunk in idx.chunks(batch_size.max(1)) {
-        let b = Batch::new(ds, chunk, device);
-        let logits = model.forward(b.x, b.adj, b.mask).logits;
-        let pred = logits.argmax(1).into_data();
-        out.extend(
+        let b = Batch::with_parts(ds, chunk, parts, device);
+        let o = net.output(&b);
+        let pred = o.logits.clone().argmax(1).into_data();
+        out.classes.extend(
             pred.iter::<i64>()
                 .map(|p| usize::try_from(p).expect("argmax is non-negative")),
         );
+        let d = o.embedding.dims()[1];
+        let e = o
+            .embedding
+            .clone()
+            .into_data()
+            .try_into_vec::<f32>()
+            .unwrap_or_default();
+        out.embeddings
+            .extend(e.chunks(d.max(1)).map(<[f32]>::to_vec));
+        if let (Some(h), Some(states)) = (heads, o.node_states) {
+            let (sp, th) = h.forward(o.embedding, states);
+            out.spectra
+                .extend(sp.into_data().try_into_vec::<f32>().unwrap_or_default());
+            out.theta
+                .extend(th.into_data().try_into_vec::<f32>().unwrap_or_default());
+        }
     }
     out
 }
 
-/// Mean total loss of an inference model over `ds` (batches of `cfg.eval_batch_size`,
-/// each weighted by its windows), with the class weights of `cfg` fitted on `ds`.
+/// Class predictions of a DS-STGAT inference model on `ds`, with inputs built on
+/// `device` (a device without autodiff).
+pub fn predict(model: &DsStgat, ds: &Dataset, batch_size: usize, device: &Device) -> Vec<usize> {
+    infer(
+        &Network::DsStgat(model.clone()),
+        None,
+        ds,
+        batch_size,
+        device,
+    )
+    .classes
+}
+
+/// Mean total loss (weighted CE + λ_ind·indicator MSE) of a DS-STGAT inference model
+/// over `ds`, with the class weights of `cfg` fitted on `ds`.
 pub fn mean_loss(
     model: &DsStgat,
     ds: &Dataset,
@@ -295,18 +751,7 @@ pub fn mean_loss(
     let mut sum = 0.0f64;
     for chunk in idx.chunks(cfg.eval_batch_size.max(1)) {
         let b = Batch::new(ds, chunk, device);
-        let w: Vec<f32> = chunk
-            .iter()
-            .map(|&k| weights[ds.label[k] as usize])
-            .collect();
-        let w_sum: f32 = w.iter().sum();
-        let w = Tensor::<1>::from_data(
-            TensorData::new(
-                w.iter().map(|v| v / w_sum).collect::<Vec<f32>>(),
-                [chunk.len()],
-            ),
-            device,
-        );
+        let w = normalized_weights(chunk, ds, &weights, device);
         let out = model.forward(b.x, b.adj, b.mask);
         let (loss, _, _) = loss_terms(
             out.logits,
@@ -319,6 +764,27 @@ pub fn mean_loss(
         sum += f64::from(loss.into_scalar::<f32>()) * chunk.len() as f64;
     }
     sum / ds.len().max(1) as f64
+}
+
+/// Class weights of the windows `chunk`, summing to 1.
+fn normalized_weights(
+    chunk: &[usize],
+    ds: &Dataset,
+    weights: &[f32],
+    device: &Device,
+) -> Tensor<1> {
+    let w: Vec<f32> = chunk
+        .iter()
+        .map(|&k| weights[ds.label[k] as usize])
+        .collect();
+    let w_sum: f32 = w.iter().sum::<f32>().max(1e-12);
+    Tensor::<1>::from_data(
+        TensorData::new(
+            w.iter().map(|v| v / w_sum).collect::<Vec<f32>>(),
+            [chunk.len()],
+        ),
+        device,
+    )
 }
 
 /// Share of `pred` equal to the labels.
@@ -367,98 +833,250 @@ fn shuffle(v: &mut [usize], rng: &mut Xoshiro128pp) {
     }
 }
 
-/// Train on `data.train`; after each epoch `progress` gets the epoch's figures (with
-/// the test accuracy when `monitor_test`).
-pub fn train(
+/// The generic training loop: `cfg.epochs` of Adam with the cosine schedule over
+/// `train`, on the autodiff `device`. With `heads`, the loss adds
+/// `λ_phy·L_phy + λ_map·L_map` (eqs. 11, 23–24). `monitor` gets a test accuracy after
+/// each epoch (monitoring only).
+fn fit_net<M: Net>(
+    mut model: M,
+    mut heads: Option<PhysicsHeads>,
     cfg: &TrainConfig,
-    data: &ProtocolData,
-    monitor_test: bool,
+    train: &Dataset,
+    classes: usize,
+    device: &Device,
+    monitor: &mut dyn FnMut(&M, &Option<PhysicsHeads>) -> Option<f64>,
     progress: &mut dyn FnMut(&EpochStats),
-) -> TrainOutcome {
-    let device = Device::flex().autodiff();
-    let plain = device.clone().without_autodiff();
-    device.seed(cfg.seed);
-    let classes = data.classes().len();
-    let mut model = cfg.model_config(classes).init(&device);
+) -> (M, Option<PhysicsHeads>, Vec<EpochStats>) {
     let mut optim = AdamConfig::new()
         .with_weight_decay(Some(WeightDecayConfig::new((2.0 * cfg.lambda_reg) as f32)))
         .init();
     let weights = if cfg.class_weighted {
-        class_weights(&data.train.label, classes)
+        class_weights(&train.label, classes)
     } else {
         vec![1.0; classes]
     };
+    let parts = BatchParts {
+        raw: M::RAW,
+        physics: heads.is_some(),
+    };
     let mut rng = Xoshiro128pp::seed_from_u64(cfg.seed);
-    let mut order: Vec<usize> = (0..data.train.len()).collect();
+    let mut order: Vec<usize> = (0..train.len()).collect();
     let mut history = Vec::with_capacity(cfg.epochs);
-    let steps_per_epoch = data.train.len().div_ceil(cfg.batch_size.max(1));
+    let steps_per_epoch = train.len().div_ceil(cfg.batch_size.max(1));
     let total_steps = steps_per_epoch * cfg.epochs;
     let mut global_step = 0usize;
-    let t_total = Instant::now();
     for epoch in 1..=cfg.epochs {
         let t0 = Instant::now();
         shuffle(&mut order, &mut rng);
-        let (mut loss_sum, mut ce_sum, mut mse_sum, mut steps) = (0.0f64, 0.0f64, 0.0f64, 0usize);
-        let mut correct = 0usize;
+        let mut sums = [0.0f64; 5];
+        let (mut steps, mut correct) = (0usize, 0usize);
         for chunk in order.chunks(cfg.batch_size.max(1)) {
-            let mut batch = Batch::new(&data.train, chunk, &device);
+            let mut batch = Batch::with_parts(train, chunk, parts, device);
             if cfg.node_dropout > 0.0 {
-                batch.mask = dropout_mask(&data.train, chunk, cfg.node_dropout, &mut rng, &device);
+                batch.mask = dropout_mask(train, chunk, cfg.node_dropout, &mut rng, device);
             }
-            let w: Vec<f32> = chunk
-                .iter()
-                .map(|&k| weights[data.train.label[k] as usize])
-                .collect();
-            let w_sum: f32 = w.iter().sum();
-            let w: Vec<f32> = w.iter().map(|v| v / w_sum).collect();
-            let w = Tensor::<1>::from_data(TensorData::new(w, [chunk.len()]), &device);
-            let out = model.forward(batch.x, batch.adj, batch.mask);
+            let w = normalized_weights(chunk, train, &weights, device);
+            let out = model.output(&batch);
             let pred = out.logits.clone().argmax(1).into_data();
             correct += pred
                 .iter::<i64>()
                 .zip(chunk)
-                .filter(|(p, &k)| *p == data.train.label[k])
+                .filter(|(p, &k)| *p == train.label[k])
                 .count();
-            let (loss, ce, mse) = loss_terms(
-                out.logits,
-                out.indicators,
-                batch.labels,
-                batch.indicators,
-                w,
-                cfg.lambda_indicator,
-            );
-            ce_sum += f64::from(ce.into_scalar::<f32>());
-            mse_sum += f64::from(mse.into_scalar::<f32>());
-            loss_sum += f64::from(loss.clone().into_scalar::<f32>());
+            let ce = weighted_ce(out.logits, batch.labels.clone(), w);
+            let mut loss = ce.clone();
+            sums[1] += f64::from(ce.into_scalar::<f32>());
+            if let Some(ind) = out.indicators {
+                let mse = (ind - batch.indicators.clone()).square().mean();
+                sums[2] += f64::from(mse.clone().into_scalar::<f32>());
+                loss = loss + mse.mul_scalar(cfg.lambda_indicator);
+            }
+            if let (Some(h), Some(states)) = (&heads, out.node_states) {
+                let (sp, th) = h.forward(out.embedding, states);
+                let l_phy = spectral_loss(
+                    sp,
+                    batch.spectra.clone().expect("physics batch"),
+                    batch.mask.clone(),
+                );
+                let l_map = theta_loss(
+                    th,
+                    batch.theta.clone().expect("physics batch"),
+                    batch.theta_known.clone().expect("physics batch"),
+                );
+                sums[3] += f64::from(l_phy.clone().into_scalar::<f32>());
+                sums[4] += f64::from(l_map.clone().into_scalar::<f32>());
+                loss = loss + l_phy.mul_scalar(cfg.lambda_phy) + l_map.mul_scalar(cfg.lambda_map);
+            }
+            sums[0] += f64::from(loss.clone().into_scalar::<f32>());
             steps += 1;
-            let grads = GradientsParams::from_grads(loss.backward(), &model);
+            let mut grads = loss.backward();
             let lr = cfg.learning_rate_at(global_step, total_steps);
-            model = optim.step(lr, model, grads);
+            let g_model = GradientsParams::from_module(&mut grads, &model);
+            model = optim.step(lr, model, g_model);
+            if let Some(h) = heads.take() {
+                let g_heads = GradientsParams::from_module(&mut grads, &h);
+                heads = Some(optim.step(lr, h, g_heads));
+            }
             global_step += 1;
         }
         let seconds = t0.elapsed().as_secs_f64();
-        let test_accuracy = monitor_test.then(|| {
-            let pred = predict(&model.valid(), &data.test, cfg.eval_batch_size, &plain);
-            accuracy(&pred, &data.test.label)
-        });
+        let test_accuracy = monitor(&model, &heads);
         let steps_f = steps.max(1) as f64;
         let stats = EpochStats {
             epoch,
-            loss: loss_sum / steps_f,
-            cross_entropy: ce_sum / steps_f,
-            indicator_mse: mse_sum / steps_f,
-            train_accuracy: correct as f64 / data.train.len().max(1) as f64,
+            loss: sums[0] / steps_f,
+            cross_entropy: sums[1] / steps_f,
+            indicator_mse: sums[2] / steps_f,
+            spectral_loss: sums[3] / steps_f,
+            theta_loss: sums[4] / steps_f,
+            train_accuracy: correct as f64 / train.len().max(1) as f64,
             test_accuracy,
             seconds,
         };
         progress(&stats);
         history.push(stats);
     }
-    TrainOutcome {
-        model,
+    (model, heads, history)
+}
+
+/// What the physics embedding (eq. 9) gives a training run.
+#[derive(Debug, Clone)]
+pub struct PhysicsInit {
+    /// Simulated windows, featurized, normalized with the measured training
+    /// normalization, graphs on the physics prior; labels index [`SIM_CLASSES`].
+    pub sim: Dataset,
+}
+
+/// Build the simulated pre-training set of eq. 9 with the measured normalization.
+pub fn physics_init(
+    emb: &PhysicsEmbedding,
+    data: &ProtocolData,
+) -> Result<PhysicsInit, crate::dataset::DatasetError> {
+    let feats: Vec<_> = emb.windows.iter().map(|(w, _)| w.clone()).collect();
+    let refs: Vec<(crate::data::WindowRef, usize)> = emb
+        .windows
+        .iter()
+        .map(|(w, l)| {
+            (
+                crate::data::WindowRef {
+                    record: 0,
+                    start: w.start,
+                    len: WINDOW,
+                },
+                *l,
+            )
+        })
+        .collect();
+    let (sim, _) = crate::dataset::assemble(
+        &feats,
+        &[],
+        &refs,
+        &data.norm,
+        Some(&data.indicator_norm),
+        &data.graph,
+    )?;
+    Ok(PhysicsInit { sim })
+}
+
+/// Train `cfg.arch` on `data.train`; after each epoch `progress` gets the epoch's
+/// figures (with the test accuracy when `monitor_test`). For the DS-STGAT, `physics`
+/// (eq. 9) pre-trains the network on the simulated windows first, and the
+/// co-adaptation heads are trained alongside unless the ablation is `no-coadapt`.
+pub fn train(
+    cfg: &TrainConfig,
+    data: &ProtocolData,
+    physics: Option<&PhysicsInit>,
+    monitor_test: bool,
+    progress: &mut dyn FnMut(&EpochStats),
+) -> Result<TrainOutcome> {
+    let device = Device::flex().autodiff();
+    let plain = device.clone().without_autodiff();
+    device.seed(cfg.seed);
+    let classes = data.classes().len();
+    let t_total = Instant::now();
+    let net = Network::init(cfg, classes, &device)?;
+    let test = &data.test;
+    let batch = cfg.eval_batch_size;
+    macro_rules! run {
+        ($model:expr, $heads:expr, $variant:ident) => {{
+            let mut monitor = |m: &_, h: &Option<PhysicsHeads>| {
+                monitor_test.then(|| {
+                    let net = Network::$variant(Module::valid(m));
+                    let hv = h.as_ref().map(Module::valid);
+                    accuracy(
+                        &infer(&net, hv.as_ref(), test, batch, &plain).classes,
+                        &test.label,
+                    )
+                })
+            };
+            let (m, h, hist) = fit_net(
+                $model,
+                $heads,
+                cfg,
+                &data.train,
+                classes,
+                &device,
+                &mut monitor,
+                progress,
+            );
+            (Network::$variant(m), h, hist)
+        }};
+    }
+    let (network, heads, history) = match net {
+        Network::DsStgat(mut model) => {
+            if let Some(p) = physics.filter(|_| cfg.uses_physics_embedding()) {
+                // Eq. 9: H_0 from the simulated responses — the body learns to name the
+                // fault hypothesis on simulated windows first.
+                let pre_cfg = TrainConfig {
+                    epochs: cfg.pretrain_epochs,
+                    class_weighted: false,
+                    node_dropout: cfg.node_dropout,
+                    ..cfg.clone()
+                };
+                let pre = pre_cfg.model_config(SIM_CLASSES.len()).init(&device);
+                let mut quiet = |_: &EpochStats| {};
+                let mut none = |_: &DsStgat, _: &Option<PhysicsHeads>| None;
+                let (pre, _, hist) = fit_net(
+                    pre,
+                    None,
+                    &pre_cfg,
+                    &p.sim,
+                    SIM_CLASSES.len(),
+                    &device,
+                    &mut none,
+                    &mut quiet,
+                );
+                if let Some(last) = hist.last() {
+                    eprintln!(
+                        "physics embedding: pre-trained on {} simulated windows for {} epochs \
+                         (fault-type accuracy {:.1} %)",
+                        p.sim.len(),
+                        hist.len(),
+                        100.0 * last.train_accuracy
+                    );
+                }
+                model.embed = pre.embed;
+                model.gat = pre.gat;
+                model.gru = pre.gru;
+                model.pool = pre.pool;
+                model.compress = pre.compress;
+            }
+            let heads = cfg
+                .uses_coadaptation()
+                .then(|| PhysicsHeads::new(cfg.hidden, SPEC_BANDS, N_THETA, &device));
+            run!(model, heads, DsStgat)
+        }
+        Network::GcnGru(m) => run!(m, None, GcnGru),
+        Network::Wdcnn(m) => run!(m, None, Wdcnn),
+        Network::CoFusionCnn(m) => run!(m, None, CoFusionCnn),
+        Network::Tst(m) => run!(m, None, Tst),
+    };
+    Ok(TrainOutcome {
+        network,
+        heads,
         history,
         train_seconds: t_total.elapsed().as_secs_f64(),
-    }
+    })
 }
 
 /// Feature and indicator normalization as saved in `normalization.json`.
@@ -474,6 +1092,15 @@ pub struct SavedNorms {
     pub indicator_mean: Vec<f32>,
     /// Indicator standard deviations, `[4]`.
     pub indicator_std: Vec<f32>,
+    /// Θ_phys names (F_map's outputs), empty without co-adaptation.
+    #[serde(default)]
+    pub theta_names: Vec<String>,
+    /// Θ_phys means over the training records (F_map's z-scoring).
+    #[serde(default)]
+    pub theta_mean: Vec<f32>,
+    /// Θ_phys standard deviations.
+    #[serde(default)]
+    pub theta_std: Vec<f32>,
 }
 
 impl SavedNorms {
@@ -488,7 +1115,17 @@ impl SavedNorms {
                 .collect(),
             indicator_mean: ind.mean.to_vec(),
             indicator_std: ind.std.to_vec(),
+            theta_names: Vec::new(),
+            theta_mean: Vec::new(),
+            theta_std: Vec::new(),
         }
+    }
+
+    /// The Θ normalization, if saved.
+    pub fn theta(&self) -> Option<([f32; N_THETA], [f32; N_THETA])> {
+        let m: [f32; N_THETA] = self.theta_mean.as_slice().try_into().ok()?;
+        let s: [f32; N_THETA] = self.theta_std.as_slice().try_into().ok()?;
+        Some((m, s))
     }
 
     /// Back to the typed normalizations.
@@ -522,6 +1159,8 @@ pub const CONFIG_FILE: &str = "config.json";
 pub const MODEL_FILE: &str = "model.bpk";
 /// Normalizations.
 pub const NORMS_FILE: &str = "normalization.json";
+/// The co-adaptation heads (spectral head and F_map).
+pub const HEADS_FILE: &str = "physics_heads.bpk";
 /// Per-epoch history.
 pub const HISTORY_FILE: &str = "history.json";
 /// Metrics.
@@ -552,6 +1191,18 @@ pub struct TrainArgs {
     /// Skip the per-epoch test accuracy (saves a forward pass over the test side).
     #[arg(long)]
     pub no_monitor: bool,
+    /// Architecture.
+    #[arg(long, value_enum, default_value = "dsstgat")]
+    pub arch: Arch,
+    /// DS-STGAT ablation.
+    #[arg(long, value_enum, default_value = "none")]
+    pub ablation: Ablation,
+    /// Cache of the closed loop's per-record Θ fits (F_map's targets).
+    #[arg(long, default_value = "out/cache/theta")]
+    pub theta_cache: PathBuf,
+    /// Skip the PNG figures.
+    #[arg(long)]
+    pub no_figures: bool,
 }
 
 /// `pumptwin eval`: evaluate a trained model on a protocol's test side.
@@ -567,9 +1218,12 @@ pub struct EvalArgs {
     /// Evaluation protocol.
     #[arg(long, value_enum)]
     pub protocol: Protocol,
-    /// Output directory for metrics.json.
+    /// Output directory for metrics.json and the figures.
     #[arg(long)]
     pub out: PathBuf,
+    /// Skip the PNG figures.
+    #[arg(long)]
+    pub no_figures: bool,
 }
 
 /// A protocol from its name (`time-block`, `cross-load`, `fault-size`).
@@ -597,12 +1251,8 @@ pub fn load_trained_config(
     Ok((cfg, norms))
 }
 
-/// Load the corpus and build a protocol's data, reporting sizes and timings on stderr.
-pub fn load_protocol(
-    data_dir: &Path,
-    protocol: Protocol,
-    norms: Option<(FeatureNorm, IndicatorNorm)>,
-) -> Result<(Corpus, ProtocolData)> {
+/// Load and preprocess every record of a data directory, reporting on stderr.
+pub fn load_corpus(data_dir: &Path) -> Result<Corpus> {
     let corpus = Corpus::load(data_dir, &PreprocessConfig::default())
         .with_context(|| format!("cannot load {}", data_dir.display()))?;
     eprintln!(
@@ -611,7 +1261,18 @@ pub fn load_protocol(
         data_dir.display(),
         corpus.load_seconds
     );
-    let data = ProtocolData::build(&corpus, protocol, &WindowConfig::default(), norms)
+    Ok(corpus)
+}
+
+/// Build a protocol's data from a corpus with graph construction `graph`, reporting
+/// sizes and timings on stderr.
+pub fn build_protocol(
+    corpus: &Corpus,
+    protocol: Protocol,
+    norms: Option<(FeatureNorm, IndicatorNorm)>,
+    graph: GraphConfig<N_NODES>,
+) -> Result<ProtocolData> {
+    let data = ProtocolData::build(corpus, protocol, &WindowConfig::default(), norms, graph)
         .with_context(|| format!("cannot build the {protocol} data"))?;
     let n = data.train.len() + data.test.len();
     eprintln!(
@@ -624,6 +1285,18 @@ pub fn load_protocol(
         data.mask_counts.missing_channel,
         data.mask_counts.rejected_signal,
     );
+    Ok(data)
+}
+
+/// Load the corpus and build a protocol's data with graph construction `graph`.
+pub fn load_protocol(
+    data_dir: &Path,
+    protocol: Protocol,
+    norms: Option<(FeatureNorm, IndicatorNorm)>,
+    graph: GraphConfig<N_NODES>,
+) -> Result<(Corpus, ProtocolData)> {
+    let corpus = load_corpus(data_dir)?;
+    let data = build_protocol(&corpus, protocol, norms, graph)?;
     Ok((corpus, data))
 }
 
@@ -660,6 +1333,19 @@ fn print_report(report: &MetricsReport) {
     );
 }
 
+/// The shaft speeds (rpm) of the records with training windows in `data`'s split.
+fn training_rpms(corpus: &Corpus, protocol: Protocol) -> Result<Vec<f32>> {
+    let split = corpus.split(protocol, &WindowConfig::default())?;
+    let mut rpms: Vec<f32> = split
+        .train
+        .iter()
+        .map(|(w, _)| corpus.records[w.record].shaft_hz * 60.0)
+        .collect();
+    rpms.sort_by(f32::total_cmp);
+    rpms.dedup_by(|a, b| (*a - *b).abs() < 1.0);
+    Ok(rpms)
+}
+
 /// Run `pumptwin train`.
 pub fn run_train(args: &TrainArgs) -> Result<()> {
     let mut cfg = match &args.config {
@@ -674,71 +1360,208 @@ pub fn run_train(args: &TrainArgs) -> Result<()> {
     if let Some(s) = args.seed {
         cfg.seed = s;
     }
-    let (corpus, data) = load_protocol(&args.data, args.protocol, None)?;
+    cfg.arch = value_name(&args.arch);
+    cfg.ablation = value_name(&args.ablation);
+    if cfg.arch != ARCH && cfg.ablation != "none" {
+        bail!(
+            "ablations apply to the DS-STGAT only (got --arch {})",
+            cfg.arch
+        );
+    }
+    let corpus = load_corpus(&args.data)?;
+    // Eq. 9: the simulated responses at the training records' speeds give the edge
+    // prior (and, below, the pre-training set).
+    let embedding = if cfg.uses_physics_embedding() {
+        let t0 = Instant::now();
+        let rpms = training_rpms(&corpus, args.protocol)?;
+        let emb = PhysicsEmbedding::build(&rpms, cfg.seed)?;
+        eprintln!(
+            "physics embedding: {} simulated windows at {} speeds in {:.1} s; \
+             edge prior P (DE, FE, BA) = {:.3?}",
+            emb.windows.len(),
+            rpms.len(),
+            t0.elapsed().as_secs_f64(),
+            emb.prior
+        );
+        cfg.graph_prior = emb.prior.iter().flatten().copied().collect();
+        Some(emb)
+    } else {
+        cfg.graph_prior.clear();
+        None
+    };
+    cfg.graph_static = cfg.ablation == "static-graph";
+    let mut data = build_protocol(&corpus, args.protocol, None, cfg.graph_config())?;
     cfg.protocol = args.protocol.name().to_string();
     cfg.classes = data.classes().to_vec();
+    let mut norms = SavedNorms::new(&data.norm, &data.indicator_norm);
+    if cfg.uses_coadaptation() {
+        // The closed loop's Θ per training record: F_map's targets (eq. 10 → 23–24).
+        let t0 = Instant::now();
+        let thetas = crate::physics::record_thetas(&corpus, &data.split, &args.theta_cache)?;
+        let (mean, std) = crate::physics::theta_norm(&thetas);
+        data.train.attach_theta(&thetas, &mean, &std);
+        eprintln!(
+            "co-adaptation: Θ fitted by the closed loop for {} training records in {:.1} s \
+             (cache {}); mean Θ = {:.3?}",
+            thetas.len(),
+            t0.elapsed().as_secs_f64(),
+            args.theta_cache.display(),
+            mean
+        );
+        norms.theta_names = crate::physics::THETA_NAMES
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+        norms.theta_mean = mean.to_vec();
+        norms.theta_std = std.to_vec();
+    }
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
     cfg.save(args.out.join(CONFIG_FILE))
         .context("cannot write config.json")?;
-    write_json(
-        &args.out.join(NORMS_FILE),
-        &SavedNorms::new(&data.norm, &data.indicator_norm),
-    )?;
-    let n_params = cfg
-        .model_config(cfg.classes.len())
-        .init(&Device::flex())
-        .num_params();
+    write_json(&args.out.join(NORMS_FILE), &norms)?;
+    let n_params = Network::init(&cfg, cfg.classes.len(), &Device::flex())?.num_params();
     let lr_end = cfg.learning_rate * cfg.final_lr_fraction;
     eprintln!(
-        "training DS-STGAT ({n_params} parameters, H = {}) for {} epochs, batch {}, \
+        "training {} ({n_params} parameters) for {} epochs, batch {}, \
          lr {} -> {lr_end} (cosine), seed {}",
-        cfg.hidden, cfg.epochs, cfg.batch_size, cfg.learning_rate, cfg.seed
+        cfg.report_name(),
+        cfg.epochs,
+        cfg.batch_size,
+        cfg.learning_rate,
+        cfg.seed
     );
-    let outcome = train(&cfg, &data, !args.no_monitor, &mut |s| {
+    let physics = match &embedding {
+        Some(emb) => Some(physics_init(emb, &data)?),
+        None => None,
+    };
+    let outcome = train(&cfg, &data, physics.as_ref(), !args.no_monitor, &mut |s| {
         let test = s
             .test_accuracy
             .map_or_else(String::new, |a| format!("  test acc {:6.2} %", 100.0 * a));
         eprintln!(
-            "epoch {:>3}/{}  loss {:.4} (ce {:.4}, ind mse {:.4})  \
+            "epoch {:>3}/{}  loss {:.4} (ce {:.4}, ind {:.4}, phy {:.4}, map {:.4})  \
              train acc {:6.2} %{test}  {:.2} s",
             s.epoch,
             cfg.epochs,
             s.loss,
             s.cross_entropy,
             s.indicator_mse,
+            s.spectral_loss,
+            s.theta_loss,
             100.0 * s.train_accuracy,
             s.seconds
         );
-    });
+    })?;
     let epoch_mean = outcome.history.iter().map(|s| s.seconds).sum::<f64>()
         / outcome.history.len().max(1) as f64;
     eprintln!(
         "trained in {:.1} s ({:.2} s per epoch of optimizer steps)",
         outcome.train_seconds, epoch_mean
     );
-    outcome
-        .model
-        .clone()
-        .save_file(args.out.join(MODEL_FILE))
-        .context("cannot write model.bpk")?;
+    outcome.network.save(&args.out.join(MODEL_FILE))?;
+    if let Some(h) = &outcome.heads {
+        h.clone()
+            .save_file(args.out.join(HEADS_FILE))
+            .context("cannot write physics_heads.bpk")?;
+    }
     write_json(&args.out.join(HISTORY_FILE), &outcome.history)?;
     let plain = Device::flex();
-    let report = evaluate(
-        &outcome.model.valid(),
+    let net = outcome.network.valid();
+    let heads = outcome.heads.as_ref().map(Module::valid);
+    let (report, inference) = evaluate_network(
+        &net,
+        heads.as_ref(),
+        &cfg,
+        norms.theta(),
         &data,
         &corpus,
-        &cfg,
         Some(outcome.train_seconds),
         &plain,
     )?;
     write_json(&args.out.join(METRICS_FILE), &report)?;
     print_report(&report);
+    if !args.no_figures {
+        crate::figures::run_figures(&args.out, &report, &outcome.history, &inference, &data)?;
+    }
     eprintln!("wrote {}", args.out.display());
     Ok(())
 }
 
-/// Run `pumptwin eval`: a burn model (`model.bpk`) or an int8 model file.
+/// Evaluate an inference network (any architecture) with its heads: the classification
+/// report of [`evaluate_with`] plus the physics metrics of Table 4 (with heads), and
+/// the clean test-side inference (for the figures).
+///
+/// ```text
+/// spectral_consistency = L_phy on the test side (mean squared error of the predicted
+///                        node spectrum shapes, log10 units², present nodes)
+/// response_mse         = mean over test records of the mean squared log-PSD difference
+///                        (dB²) between the record's test-side DE signal and the 2-DOF
+///                        model rendered at F_map's Θ̂ (mean over the record's windows)
+///                        with the fault type of the record's majority class
+/// parameter_drift      = mean over test records of the standard deviation of Θ̂ across
+///                        the record's windows (z-units, mean over components): a record
+///                        is one bearing state, so Θ̂ should not move within it
+/// ```
+pub fn evaluate_network(
+    net: &Network,
+    heads: Option<&PhysicsHeads>,
+    cfg: &TrainConfig,
+    theta_norm: Option<([f32; N_THETA], [f32; N_THETA])>,
+    data: &ProtocolData,
+    corpus: &Corpus,
+    train_seconds: Option<f64>,
+    device: &Device,
+) -> Result<(MetricsReport, Inference)> {
+    let batch = cfg.eval_batch_size;
+    let predictor = |ds: &Dataset| Ok(infer(net, None, ds, batch, device).classes);
+    let mut report = evaluate_with(
+        &predictor,
+        &cfg.report_name(),
+        data,
+        corpus,
+        cfg.seed,
+        train_seconds,
+    )?;
+    let inference = infer(net, heads, &data.test, batch, device);
+    if heads.is_some() && !inference.spectra.is_empty() && data.test.has_signals() {
+        let (mut sum, mut n) = (0.0f64, 0usize);
+        for (k, (p, t)) in inference
+            .spectra
+            .chunks(SPEC_BANDS)
+            .zip(data.test.spectra.chunks(SPEC_BANDS))
+            .enumerate()
+        {
+            if data.test.mask[k] {
+                sum += p
+                    .iter()
+                    .zip(t)
+                    .map(|(a, b)| f64::from(a - b).powi(2))
+                    .sum::<f64>();
+                n += SPEC_BANDS;
+            }
+        }
+        report.spectral_consistency = Some(sum / n.max(1) as f64);
+        report.parameter_drift = Some(crate::physics::parameter_drift(
+            &inference.theta,
+            &data.test.record,
+        ));
+        if let Some((mean, std)) = theta_norm {
+            report.response_mse = crate::physics::response_mse(
+                corpus,
+                &data.split.test,
+                &inference,
+                data.classes(),
+                &mean,
+                &std,
+            );
+        }
+    }
+    Ok((report, inference))
+}
+
+/// Run `pumptwin eval`: a burn model (`model.bpk`, any architecture) or an int8 model
+/// file.
 pub fn run_eval(args: &EvalArgs) -> Result<()> {
     if crate::export::is_model_file(&args.model) {
         return run_eval_int8(args);
@@ -751,7 +1574,8 @@ pub fn run_eval(args: &EvalArgs) -> Result<()> {
             args.protocol
         );
     }
-    let (corpus, data) = load_protocol(&args.data, args.protocol, norms)?;
+    let saved = read_saved_norms(&args.model);
+    let (corpus, data) = load_protocol(&args.data, args.protocol, norms, cfg.graph_config())?;
     if !cfg.classes.is_empty() && cfg.classes != data.classes() {
         bail!(
             "the model was trained on classes {:?} ({}), protocol {} has {:?}",
@@ -762,25 +1586,60 @@ pub fn run_eval(args: &EvalArgs) -> Result<()> {
         );
     }
     let plain = Device::flex();
-    let model = cfg
-        .model_config(data.classes().len())
-        .init(&plain)
-        .try_load_file(&args.model)
-        .with_context(|| format!("cannot load {}", args.model.display()))?;
-    let report = evaluate(&model, &data, &corpus, &cfg, None, &plain)?;
+    let net = Network::init(&cfg, data.classes().len(), &plain)?.load(&args.model)?;
+    let heads_path = args
+        .model
+        .parent()
+        .unwrap_or(Path::new("."))
+        .join(HEADS_FILE);
+    let heads = if heads_path.is_file() {
+        Some(
+            PhysicsHeads::new(cfg.hidden, SPEC_BANDS, N_THETA, &plain)
+                .try_load_file(&heads_path)
+                .with_context(|| format!("cannot load {}", heads_path.display()))?,
+        )
+    } else {
+        None
+    };
+    let (report, inference) = evaluate_network(
+        &net,
+        heads.as_ref(),
+        &cfg,
+        saved.as_ref().and_then(SavedNorms::theta),
+        &data,
+        &corpus,
+        None,
+        &plain,
+    )?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
     write_json(&args.out.join(METRICS_FILE), &report)?;
     print_report(&report);
+    if !args.no_figures {
+        let dir = args.model.parent().unwrap_or(Path::new("."));
+        let history: Vec<EpochStats> = std::fs::read_to_string(dir.join(HISTORY_FILE))
+            .ok()
+            .and_then(|t| serde_json::from_str(&t).ok())
+            .unwrap_or_default();
+        crate::figures::run_figures(&args.out, &report, &history, &inference, &data)?;
+    }
     eprintln!("wrote {}", args.out.join(METRICS_FILE).display());
     Ok(())
+}
+
+/// `normalization.json` beside a model, if readable.
+fn read_saved_norms(model: &Path) -> Option<SavedNorms> {
+    let dir = model.parent().unwrap_or(Path::new("."));
+    let text = std::fs::read_to_string(dir.join(NORMS_FILE)).ok()?;
+    serde_json::from_str(&text).ok()
 }
 
 /// `pumptwin eval` of an int8 model file: every window through the core's integer
 /// network, with the file's own normalization.
 fn run_eval_int8(args: &EvalArgs) -> Result<()> {
     let loaded = crate::export::load_model_file(&args.model)?;
-    let (corpus, data) = load_protocol(&args.data, args.protocol, Some(loaded.norms()?))?;
+    let graph = loaded.file.graph_config::<N_NODES>()?;
+    let (corpus, data) = load_protocol(&args.data, args.protocol, Some(loaded.norms()?), graph)?;
     if loaded.classes() != data.classes() {
         bail!(
             "the model's classes {:?} differ from protocol {}'s {:?}",
@@ -894,25 +1753,35 @@ mod tests {
         let fresh = cfg.model_config(2).init(&plain);
         let before = mean_loss(&fresh, &data.train, &cfg, 2, &plain);
         let mut log = Vec::new();
-        let out = train(&cfg, &data, true, &mut |s| log.push(*s));
+        let out = train(&cfg, &data, None, true, &mut |s| log.push(*s)).unwrap();
         assert_eq!(log.len(), 1);
-        let after = mean_loss(&out.model.valid(), &data.train, &cfg, 2, &plain);
+        let Network::DsStgat(model) = out.network.valid() else {
+            panic!("dsstgat expected")
+        };
+        let after = mean_loss(&model, &data.train, &cfg, 2, &plain);
         assert!(after < before, "loss {before} -> {after}");
         // Same seed, same run.
-        let again = train(&cfg, &data, false, &mut |_| {});
+        let again = train(&cfg, &data, None, false, &mut |_| {}).unwrap();
+        let Network::DsStgat(model2) = again.network.valid() else {
+            panic!("dsstgat expected")
+        };
         assert_eq!(
-            predict(&out.model.valid(), &data.test, 5, &plain),
-            predict(&again.model.valid(), &data.test, 5, &plain)
+            predict(&model, &data.test, 5, &plain),
+            predict(&model2, &data.test, 5, &plain)
         );
-        assert_eq!(
-            mean_loss(&again.model.valid(), &data.train, &cfg, 2, &plain),
-            after
-        );
+        assert_eq!(mean_loss(&model2, &data.train, &cfg, 2, &plain), after);
+        let out = TrainOutcome {
+            network: Network::DsStgat(model),
+            ..again
+        };
+        let Network::DsStgat(trained) = &out.network else {
+            unreachable!()
+        };
         // Weights survive a save/load round trip.
         let dir = std::env::temp_dir().join(format!("pumptwin-train-test-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let path = dir.join(MODEL_FILE);
-        out.model.clone().save_file(&path).unwrap();
+        trained.clone().save_file(&path).unwrap();
         let loaded = cfg
             .model_config(2)
             .init(&plain)

@@ -25,7 +25,7 @@ fn shipped_int8_model_agrees_with_the_float_model_on_cwru() {
     let float_path = root().join("models/dsstgat-cwru-tb.float/model.bpk");
     let int8 = load_model_file(&root().join("models/dsstgat-cwru-tb.ptm")).unwrap();
     let (cfg, norms) = load_trained_config(&float_path).unwrap();
-    let (_, pd) = load_protocol(&data, Protocol::TimeBlock, norms).unwrap();
+    let (_, pd) = load_protocol(&data, Protocol::TimeBlock, norms, cfg.graph_config()).unwrap();
     assert_eq!(int8.classes(), pd.classes());
     let device = Device::flex();
     let burn = cfg

@@ -8,6 +8,7 @@ use pumptwin_trainer::can_encode::{run_can_encode, CanEncodeArgs};
 use pumptwin_trainer::cli::{
     is_broken_pipe, run_features, run_simulate, run_twin, FeaturesArgs, SimulateArgs, TwinCmd,
 };
+use pumptwin_trainer::compare::{run_compare, CompareArgs};
 use pumptwin_trainer::data::preprocess::{PreprocessConfig, MODEL_FS_HZ};
 use pumptwin_trainer::data::summary::summarize;
 use pumptwin_trainer::data::windows::{Protocol, WindowConfig, DEFAULT_HOP, DEFAULT_WINDOW_LEN};
@@ -50,6 +51,9 @@ enum Command {
     CanEncode(CanEncodeArgs),
     /// Diagnose one recording: per-window class and probabilities, majority class.
     Predict(PredictArgs),
+    /// Train (where missing) and tabulate the DS-STGAT, its ablations and the baselines
+    /// on every protocol (markdown + JSON table, radar and ablation charts).
+    Compare(CompareArgs),
 }
 
 /// `pumptwin data …`
@@ -109,6 +113,7 @@ fn main() -> anyhow::Result<()> {
         Command::Export(args) => run_export(args),
         Command::CanEncode(args) => run_can_encode(args),
         Command::Predict(args) => run_predict(args),
+        Command::Compare(args) => run_compare(args),
     };
     match result {
         Err(e) if is_broken_pipe(&e) => Ok(()),
