@@ -20,7 +20,8 @@
 //!   makes ρ the similarity of the two nodes' feature profiles, defined for any `w ≥ 1`.
 //! - Eq. 2 compares "ω_ij" with the threshold; ω is taken as ρ itself, so only strong
 //!   *positive* coupling makes an edge. Negative weights would make degrees in eq. 3
-//!   non-positive and the normalization undefined.
+//!   non-positive and the normalization undefined, so `D_ij = 0` for `ρ ≤ 0` even when
+//!   `τ_corr < 0` (a configuration the model file allows).
 //! - The prior `P` (symmetric, entries in [0, 1]) carries the sensor placement and,
 //!   from the trainer, the simulated spectral correlation between nodes (eq. 9's
 //!   physics embedding); `β` blends it with the measured correlation.
@@ -202,7 +203,14 @@ pub fn build_dynamic_graphs<const N: usize, const D: usize>(
                 } else {
                     0.0
                 };
-                let dynamic = if rho >= cfg.tau_corr { rho } else { 0.0 };
+                // Only positive coupling is an edge, whatever τ_corr (a τ_corr < 0
+                // would otherwise let a negative ρ in: degrees < 1 or ≤ 0, eq. 3
+                // undefined; found by the property tests, RELIABILITY.md).
+                let dynamic = if rho >= cfg.tau_corr && rho > 0.0 {
+                    rho
+                } else {
+                    0.0
+                };
                 let w = (1.0 - beta) * dynamic + beta * cfg.prior[i][j];
                 a[i][j] = w;
                 a[j][i] = w;
@@ -430,5 +438,29 @@ mod tests {
         assert_eq!(window_pearson(&x, 0, N, 0, 3), 0.0); // node out of range
         assert_eq!(window_pearson(&x, 0, 1, usize::MAX, usize::MAX), 0.0);
         assert!(window_pearson(&x, 0, 1, 0, 3).abs() > 0.0);
+    }
+
+    /// Regression (property test, RELIABILITY.md): with `τ_corr < 0` an anti-correlated
+    /// pair made a negative edge, a degree below 1 and `Â_ii > 1` (or a node with no
+    /// self-loop at all). Only positive ρ is an edge, whatever τ.
+    #[test]
+    fn negative_correlation_is_no_edge_even_with_a_negative_threshold() {
+        let mut x = [[[0.0f32; 2]; 2]; 3];
+        for (t, step) in x.iter_mut().enumerate() {
+            let v = t as f32 + 1.0;
+            step[0] = [v, -v];
+            step[1] = [-v, v];
+        }
+        let cfg = GraphConfig {
+            prior: [[0.0; 2]; 2],
+            prior_weight: 0.0,
+            window_steps: 3,
+            tau_corr: -1.0,
+        };
+        let mut out = [Adjacency::<2>::ZERO; 3];
+        build_dynamic_graphs(&cfg, &x, &NodeMask::ALL, &mut out).unwrap();
+        for a in &out {
+            assert_eq!(a.0, [[1.0, 0.0], [0.0, 1.0]]);
+        }
     }
 }
