@@ -96,9 +96,10 @@ print(f"| frame → window line latency p50 / p99 / max | {lat.group(2)} / {lat.
 print(f"| RSS at 0.5 s / 1 s / end / max (KiB, {len(rss)} samples every 0.5 s) | {rss[1]} / {rss[2]} / {rss[-1]} / {max(rss)} |")
 def util(a, b):  # CPU share of one core between samples a and b
     return 100 * (cpu[b] - cpu[a]) / (ts[b] - ts[a]) if ts[b] > ts[a] else float("nan")
-print(f"| RSS first / last sample (KiB) | {rss[0]} / {rss[-1]} |")
-print(f"| CPU time at first / last sample | {cpu[0]:.2f} s at {ts[0]:.1f} s / {cpu[-1]:.2f} s at {ts[-1]:.1f} s |")
-print(f"| CPU share of one core, first / last 2 s | {util(0, min(4, len(cpu) - 1)):.0f} % / {util(max(0, len(cpu) - 5), len(cpu) - 1):.0f} % |")
+s0 = next((i for i, t in enumerate(ts) if t >= 0.5), 0)  # the process is up
+print(f"| start / end: RSS (KiB) | {rss[s0]} at {ts[s0]:.1f} s / {rss[-1]} at {ts[-1]:.1f} s |")
+print(f"| start / end: CPU time used | {cpu[s0]:.2f} s / {cpu[-1]:.2f} s |")
+print(f"| start / end: CPU share of one core over 2 s | {util(0, min(4, len(cpu) - 1)):.0f} % / {util(max(0, len(cpu) - 5), len(cpu) - 1):.0f} % |")
 print(f"| final counters | {health.group(1) if health else '?'} |")
 print(f"| RSS samples | {' '.join(map(str, rss))} |")
 PY
