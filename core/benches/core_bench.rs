@@ -180,6 +180,7 @@ fn features_graph_window_seconds() -> f64 {
         envelope_band: EnvelopeBand::DEFAULT,
         band_limit_hz: 5_000.0,
         segments: T,
+        noise_compensation: false,
     };
     let gcfg = GraphConfig::<N>::uniform();
     let mut scratch = Box::new(FeatureScratch::<W>::new());

@@ -14,7 +14,6 @@ use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 use anyhow::{Context, Result};
-use burn::module::Module;
 use burn::tensor::activation::softmax;
 use burn::tensor::Device;
 use pumptwin_core::dsstgat::{probabilities_into, Output};
@@ -25,7 +24,7 @@ use crate::cli::{LoadedRecord, RecordArgs};
 use crate::dataset::{Dataset, NODES, N_INDICATORS, N_NODES};
 use crate::export::{is_model_file, load_model_file, ARCH_INT8};
 use crate::featurize::{feature_config, window_features, window_graphs, MaskCounts, WINDOW};
-use crate::training::{load_trained_config, Batch, ARCH};
+use crate::training::{load_trained_config, Batch, BatchParts, Network};
 
 /// Samples between window starts.
 pub const HOP: usize = WINDOW / 2;
@@ -123,13 +122,26 @@ pub fn run_predict(args: &PredictArgs) -> Result<()> {
     } else {
         let (cfg, norms) = load_trained_config(&args.model)?;
         let (norm, _) = norms.context("no normalization.json beside the burn model")?;
-        (cfg.classes.clone(), norm, GraphConfig::<N_NODES>::uniform())
+        let graph: GraphConfig<N_NODES> = cfg.graph_config();
+        (cfg.classes.clone(), norm, graph)
     };
     let mut ds = Dataset::default();
+    let mut window_raw = vec![0.0f32; Dataset::RAW_PER_WINDOW];
     for w in &wf {
         let (x, a) = window_graphs(w, &norm, &graph)
             .map_err(|e| anyhow::anyhow!("window at sample {}: {e}", w.start))?;
         ds.push(&x, &a, &w.mask.0, &[0.0; N_INDICATORS], 0, 0);
+        // The raw samples too, for the raw-signal baselines.
+        window_raw.fill(0.0);
+        for (i, name) in NODES.iter().enumerate() {
+            if let Some(x) = rec
+                .channel(name)
+                .and_then(|c| c.samples.get(w.start..w.start + WINDOW))
+            {
+                window_raw[i * WINDOW..(i + 1) * WINDOW].copy_from_slice(x);
+            }
+        }
+        ds.push_signals(&window_raw, &w.mask.0, rec.fs_hz);
     }
     let probs: Vec<Vec<f32>> = if let Some(m) = &int8_model {
         let outs: Vec<Output<16, 8>> = crate::export::int8_outputs(&m.model, &ds)?;
@@ -144,16 +156,16 @@ pub fn run_predict(args: &PredictArgs) -> Result<()> {
     } else {
         let (tcfg, _) = load_trained_config(&args.model)?;
         let device = Device::flex();
-        let model = tcfg
-            .model_config(classes.len())
-            .init(&device)
-            .try_load_file(&args.model)
-            .with_context(|| format!("cannot load {}", args.model.display()))?;
+        let net = Network::init(&tcfg, classes.len(), &device)?.load(&args.model)?;
+        let parts = BatchParts {
+            raw: net.raw(),
+            physics: false,
+        };
         let idx: Vec<usize> = (0..ds.len()).collect();
         let mut out = Vec::with_capacity(ds.len());
         for chunk in idx.chunks(256) {
-            let b = Batch::new(&ds, chunk, &device);
-            let p = softmax(model.forward(b.x, b.adj, b.mask).logits, 1);
+            let b = Batch::with_parts(&ds, chunk, parts, &device);
+            let p = softmax(net.output(&b).logits, 1);
             let v = p
                 .into_data()
                 .try_into_vec::<f32>()
@@ -188,7 +200,11 @@ pub fn run_predict(args: &PredictArgs) -> Result<()> {
     let report = Prediction {
         input: args.record.input.display().to_string(),
         model: args.model.display().to_string(),
-        arch: if int8 { ARCH_INT8 } else { ARCH }.to_string(),
+        arch: if int8 {
+            ARCH_INT8.to_string()
+        } else {
+            load_trained_config(&args.model)?.0.report_name()
+        },
         fs_hz_input: raw.fs_hz,
         fs_hz_model: rec.fs_hz,
         resampled: (raw.fs_hz - rec.fs_hz).abs() > 1e-3,

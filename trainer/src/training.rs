@@ -1342,7 +1342,7 @@ fn training_rpms(corpus: &Corpus, protocol: Protocol) -> Result<Vec<f32>> {
         .map(|(w, _)| corpus.records[w.record].shaft_hz * 60.0)
         .collect();
     rpms.sort_by(f32::total_cmp);
-    rpms.dedup_by(|a, b| (*a - *b).abs() < 1.0);
+    rpms.dedup_by(|a, b| (*a - *b).abs() < 20.0);
     Ok(rpms)
 }
 

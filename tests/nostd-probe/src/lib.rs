@@ -133,6 +133,7 @@ pub extern "C" fn probe_features_graph(samples: &[[f32; W]; N], shaft_hz: f32) -
         envelope_band: EnvelopeBand::DEFAULT,
         band_limit_hz: 5_000.0,
         segments: T,
+        noise_compensation: false,
     };
     let mut scratch = FeatureScratch::<W>::new();
     let mut x = [[[0.0f32; FEATURE_DIM]; N]; T];
