@@ -311,14 +311,24 @@ impl<T: Real> Bearing2Dof<T> {
             return Err(Error::InvalidParameter("time step must be finite and > 0"));
         }
         let mut s = state;
-        for k in 0..n {
-            let f0 = (force_r[2 * k], force_t[2 * k]);
-            let (ar, at) = self.acceleration(&s, f0.0, f0.1);
-            accel_r[k] = ar;
-            accel_t[k] = at;
-            let fm = (force_r[2 * k + 1], force_t[2 * k + 1]);
-            let f1 = (force_r[2 * k + 2], force_t[2 * k + 2]);
-            s = self.step(&s, h, f0, fm, f1);
+        // Step k reads forces 2k, 2k+1, 2k+2: windows of 3 every 2 (n of them), by
+        // iterator so that no index can fail (no panic path, RELIABILITY.md).
+        let forces = force_r
+            .windows(3)
+            .step_by(2)
+            .zip(force_t.windows(3).step_by(2));
+        let outputs = accel_r.iter_mut().zip(accel_t.iter_mut());
+        for (k, ((out_r, out_t), (fr, ft))) in outputs.zip(forces).enumerate() {
+            let (&[r0, rm, r1], &[t0, tm, t1]) = (fr, ft) else {
+                return Err(Error::BufferSize {
+                    expected: 2 * n + 1,
+                    got: force_r.len(),
+                });
+            };
+            let (ar, at) = self.acceleration(&s, r0, t0);
+            *out_r = ar;
+            *out_t = at;
+            s = self.step(&s, h, (r0, t0), (rm, tm), (r1, t1));
             if !s.is_finite() {
                 return Err(Error::Diverged { step: k });
             }

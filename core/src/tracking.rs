@@ -478,8 +478,8 @@ impl<const W: usize> Tracker<W> {
         let nom = Theta::of(&self.cfg.nominal).log();
         let (lo, hi) = (math::ln(self.cfg.bounds[0]), math::ln(self.cfg.bounds[1]));
         [
-            phi[0].clamp(nom[0] + lo, nom[0] + hi),
-            phi[1].clamp(nom[1] + lo, nom[1] + hi),
+            clamp_keep_nan(phi[0], nom[0] + lo, nom[0] + hi),
+            clamp_keep_nan(phi[1], nom[1] + lo, nom[1] + hi),
         ]
     }
 
@@ -550,9 +550,17 @@ impl<const W: usize> Tracker<W> {
             let x = (k as f64 * df - band[0]) / (band[1] - band[0]);
             0.5 - 0.5 * math::cos(2.0 * math::PI * x)
         };
+        // Bins k_lo..=k_hi (k_hi < half ≤ W), by iterator: no index can fail.
+        let bins = || {
+            self.power
+                .iter()
+                .enumerate()
+                .take(k_hi.saturating_add(1))
+                .skip(k_lo)
+        };
         let (mut in_band, mut total, mut first) = (0.0f64, 0.0f64, 0.0f64);
-        for k in k_lo..=k_hi {
-            let p = f64::from(self.power[k]);
+        for (k, &pk) in bins() {
+            let p = f64::from(pk);
             let up = taper(k) * p;
             in_band += p;
             total += up;
@@ -567,9 +575,9 @@ impl<const W: usize> Tracker<W> {
         }
         let centroid = first / total;
         let mut second = 0.0f64;
-        for k in k_lo..=k_hi {
+        for (k, &pk) in bins() {
             let d = k as f64 * df - centroid;
-            second += d * d * taper(k) * f64::from(self.power[k]);
+            second += d * d * taper(k) * f64::from(pk);
         }
         let spread = math::sqrt(second / total);
         if !(spread > 0.0 && centroid > 0.0) {
@@ -591,7 +599,7 @@ impl<const W: usize> Tracker<W> {
         }
         let pulse_s = 2.0 * PULSE_LEAD_SIGMAS * self.cfg.impact_sigma_s;
         let len = (DECAY_TIMES / alpha + pulse_s) * self.cfg.fs_hz
-            + (self.n_taps / self.cfg.oversample) as f64
+            + (self.n_taps / self.cfg.oversample.max(1)) as f64
             + 2.0;
         if len.is_finite() && len < W as f64 {
             len as usize
@@ -616,7 +624,7 @@ impl<const W: usize> Tracker<W> {
     fn simulate_into_signal(&mut self, theta: &Theta) -> Result<()> {
         let params = theta.apply(&self.cfg.nominal);
         let model = Bearing2Dof::<f64>::new(&params)?;
-        let os = self.cfg.oversample;
+        let os = self.cfg.oversample.max(1); // ≥ 1 (validated)
         let h = 1.0 / (self.cfg.fs_hz * os as f64);
         let total = self.run_len(&params);
         // One impact: a train whose period (2W samples) is longer than the run.
@@ -630,47 +638,54 @@ impl<const W: usize> Tracker<W> {
         };
         // Never drawn from: the pulse has no jitter.
         let mut rng = Xoshiro128pp::seed_from_u64(0);
+        // Every buffer access below is checked (no panic path, RELIABILITY.md); the
+        // sizes hold by construction (`run_len` ≤ W, chunks ≤ MAX_CHUNK_STEPS), so the
+        // error is never returned.
+        let short = Error::InvalidParameter("tracker: a run longer than its buffers");
         let l = self.n_taps;
-        let taps = &self.taps[..l];
+        let taps = self.taps.get(..l).ok_or(short)?;
         let (share, gain) = (self.cfg.angular_share, self.cfg.angular_gain);
         let mut state = State::REST;
-        self.line[..l - 1].fill(0.0);
+        self.line
+            .get_mut(..l.saturating_sub(1))
+            .ok_or(short)?
+            .fill(0.0);
         let (mut out, mut step0) = (0usize, 0usize);
         while out < total {
             let n_out = CHUNK_SAMPLES.min(total - out);
             let n = n_out * os;
-            let fr = &mut self.force_r[..2 * n + 1];
+            let fr = self.force_r.get_mut(..2 * n + 1).ok_or(short)?;
             fr.fill(0.0);
             let grid = TimeGrid {
                 t0: step0 as f64 * h,
                 dt: 0.5 * h,
             };
             pulse.add_to(grid, 1.0, fr, &mut rng)?;
-            let ft = &mut self.force_t[..2 * n + 1];
+            let ft = self.force_t.get_mut(..2 * n + 1).ok_or(short)?;
             for (t, r) in ft.iter_mut().zip(fr.iter()) {
                 *t = share * r;
             }
+            let ar = self.accel_r.get_mut(..n).ok_or(short)?;
+            let at = self.accel_t.get_mut(..n).ok_or(short)?;
             state = model
-                .simulate(
-                    state,
-                    h,
-                    fr,
-                    ft,
-                    &mut self.accel_r[..n],
-                    &mut self.accel_t[..n],
-                )
+                .simulate(state, h, fr, ft, ar, at)
                 .map_err(|e| match e {
                     Error::Diverged { step } => Error::Diverged { step: step0 + step },
                     other => other,
                 })?;
-            for i in 0..n {
-                self.line[l - 1 + i] = (self.accel_r[i] + gain * self.accel_t[i]) as f32;
+            let fresh = self
+                .line
+                .get_mut(l.saturating_sub(1)..l.saturating_sub(1) + n)
+                .ok_or(short)?;
+            for ((x, &r), &t) in fresh.iter_mut().zip(ar.iter()).zip(at.iter()) {
+                *x = (r + gain * t) as f32;
             }
-            for j in 0..n_out {
+            let dst = self.signal.get_mut(out..out + n_out).ok_or(short)?;
+            for (j, o) in dst.iter_mut().enumerate() {
                 // Causal FIR output at chunk input i = j·M: Σ_t h[t]·x[i − t].
-                let end = l + j * os;
+                let history = self.line.get(j * os..l + j * os).ok_or(short)?;
                 let mut acc = 0.0f32;
-                for (hv, xv) in taps.iter().zip(self.line[end - l..end].iter().rev()) {
+                for (hv, xv) in taps.iter().zip(history.iter().rev()) {
                     acc += hv * xv;
                 }
                 if !acc.is_finite() {
@@ -678,13 +693,19 @@ impl<const W: usize> Tracker<W> {
                         step: step0 + j * os,
                     });
                 }
-                self.signal[out + j] = acc;
+                *o = acc;
             }
-            self.line.copy_within(n..n + l - 1, 0);
+            let keep = n..n + l.saturating_sub(1);
+            if keep.end > self.line.len() {
+                return Err(short);
+            }
+            self.line.copy_within(keep, 0);
             out += n_out;
             step0 += n;
         }
-        self.signal[total..].fill(0.0);
+        if let Some(tail) = self.signal.get_mut(total..) {
+            tail.fill(0.0);
+        }
         Ok(())
     }
 
@@ -806,6 +827,16 @@ impl<const W: usize> Tracker<W> {
             accepted_steps: accepted,
             simulations: sims,
         })
+    }
+}
+
+/// `x.clamp(lo, hi)` without its panic for `lo > hi` or a NaN bound (the bounds are
+/// validated, so they never are): NaN stays NaN, as with `clamp`.
+fn clamp_keep_nan(x: f64, lo: f64, hi: f64) -> f64 {
+    if x.is_nan() {
+        x
+    } else {
+        x.max(lo).min(hi)
     }
 }
 

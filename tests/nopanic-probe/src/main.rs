@@ -4,7 +4,8 @@
 //! codegen unit, `opt-level = "s"` as in the firmware) runs, per window, exactly the
 //! core calls the gateway and the firmware make: decode the model file, build the int8
 //! network, band-limit the samples, node features, standardization, the dynamic graph,
-//! the int8 forward pass and the probabilities. Every input is opaque to the optimiser
+//! the int8 forward pass and the probabilities; and the gateway's on-edge tracking of
+//! stiffness and damping (`Tracker::update`). Every input is opaque to the optimiser
 //! (`core::hint::black_box`), so nothing is constant-folded away.
 //!
 //! Its `#[panic_handler]` calls `pumptwin_core_panic_is_reachable`, a symbol that
@@ -29,6 +30,8 @@ use pumptwin_core::features::{node_features, FeatureConfig, FeatureScratch, FEAT
 use pumptwin_core::fir::{FirLowpass, BAND_LIMIT_TAPS};
 use pumptwin_core::graph::{build_dynamic_graphs, Adjacency, NodeMask};
 use pumptwin_core::model_file::{decode_into, ModelFile};
+use pumptwin_core::simulator::BearingParams;
+use pumptwin_core::tracking::{Tracker, TrackerConfig};
 
 /// The gateway's shapes: 2048-sample windows, T = 8 segments, N = 3 nodes, F = 20,
 /// H = 32, ≤ 16 classes, ≤ 8 indicators.
@@ -136,13 +139,33 @@ fn run_once(
     out.class
 }
 
+/// The gateway's on-edge tracking of the radial stiffness and damping: one update per
+/// window (RK4 simulation, band features, a Gauss-Newton step).
+#[inline(never)]
+fn track_once(tracker: &mut Tracker<W>) -> f64 {
+    match tracker.update(black_box(&SAMPLES[0])) {
+        Ok(_) => tracker.theta().stiffness_radial,
+        Err(_) => -1.0,
+    }
+}
+
 /// The entry symbol the linker starts from.
 #[no_mangle]
 pub extern "C" fn _start() -> ! {
     let mut model = ModelFile::default();
     let mut net = Net::EMPTY;
     let mut scratch = Scratch::new();
+    let config = TrackerConfig::edge_default(
+        black_box(12_000.0),
+        black_box(BearingParams::default_housing()),
+        black_box(50.0),
+        black_box(2.0e-5),
+    );
+    let mut tracker = Tracker::<W>::new(config);
     loop {
         black_box(run_once(&mut model, &mut net, &mut scratch));
+        if let Ok(t) = tracker.as_mut() {
+            black_box(track_once(t));
+        }
     }
 }
