@@ -31,7 +31,7 @@ export RUSTFLAGS="-Cpasses=sancov-module -Cllvm-args=-sanitizer-coverage-level=4
 
 bins=()
 for t in "${TARGETS[@]}"; do bins+=(--bin "$t"); done
-nice -n 19 cargo build --locked --release --target "$HOST" "${bins[@]}"
+nice -n 19 cargo build --release --target "$HOST" "${bins[@]}"
 
 status=0
 for t in "${TARGETS[@]}"; do

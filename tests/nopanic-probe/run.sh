@@ -20,7 +20,7 @@ report() {
     fi
     CARGO_PROFILE_RELEASE_OPT_LEVEL="$level" CARGO_PROFILE_RELEASE_DEBUG=line-tables-only \
         CARGO_PROFILE_RELEASE_STRIP=none CARGO_TARGET_DIR="$CARGO_TARGET_DIR/report" \
-        nice -n 10 cargo build --locked --release --target "$TARGET" --features report -q
+        nice -n 10 cargo build --release --target "$TARGET" --features report -q
     python3 panic_paths.py arm-none-eabi-objdump \
         "$CARGO_TARGET_DIR/report/$TARGET/release/pumptwin-nopanic-probe"
 }
@@ -34,7 +34,7 @@ status=0
 for level in $LEVELS; do
     log=$(mktemp)
     if CARGO_PROFILE_RELEASE_OPT_LEVEL="$level" nice -n 10 \
-        cargo build --locked --release --target "$TARGET" >"$log" 2>&1; then
+        cargo build --release --target "$TARGET" >"$log" 2>&1; then
         echo "opt-level $level: linked, no reachable panic"
     else
         if grep -q "undefined symbol: pumptwin_core_panic_is_reachable" "$log"; then
@@ -50,7 +50,7 @@ done
 
 # Negative control: a reachable panic must fail the link, with the proof's symbol.
 log=$(mktemp)
-if CARGO_PROFILE_RELEASE_OPT_LEVEL=s cargo build --locked --release --target "$TARGET" \
+if CARGO_PROFILE_RELEASE_OPT_LEVEL=s cargo build --release --target "$TARGET" \
     --features _panic_canary >"$log" 2>&1; then
     echo "the panic canary linked: the proof cannot catch a reachable panic" >&2
     status=1
