@@ -50,7 +50,7 @@ impl Default for LoopConfig {
     fn default() -> Self {
         Self {
             max_steps: 5,
-            fit_seconds: 3.0,
+            fit_seconds: 2.0,
             residual_seconds: 6.0,
             max_record_seconds: 6.0,
             min_relative_gain: 0.03,
@@ -422,7 +422,7 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
         };
         let candidates: Vec<_> = trace(&analysis, &ctx)
             .into_iter()
-            .filter(|c| !tried.contains(&c.effect.name().to_string()))
+            .filter(|c| !tried.contains(&tried_key(&c.effect)))
             .collect();
         let significant = unexplained(&analysis, &current.model, &sig_res, span_s).len();
         last_analysis = analysis;
@@ -440,7 +440,7 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
         }
         let mut accepted = false;
         for cand in candidates.into_iter().take(3) {
-            tried.push(cand.effect.name().to_string());
+            tried.push(tried_key(&cand.effect));
             let line_amp =
                 |f: f64| excess_line_amplitude(&target_res.meas, &sim_sig_now, &sig_res, f);
             let start = current.model.with_effect(cand.effect.clone(), &line_amp);
@@ -527,6 +527,15 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
         residual: last_analysis,
     };
     Ok((report, artifacts))
+}
+
+/// What a tried candidate is remembered by: its name, and for a structural mode its
+/// frequency (to 100 Hz), so a further mode elsewhere can still be tried.
+fn tried_key(e: &Effect) -> String {
+    match e {
+        Effect::ExtraResonance { f_hz } => format!("extra_resonance@{:.0}", f_hz / 100.0),
+        other => other.name().to_string(),
+    }
 }
 
 /// dB spectra pairs for plotting: `(f, measured dB, model dB)`.

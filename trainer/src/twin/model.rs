@@ -260,7 +260,18 @@ impl TwinModel {
         let amp = self.get("ln_impact_amp").map_or(0.0, f64::exp);
         let peak = amp * IMPACT_SIGMA_S * (2.0 * std::f64::consts::PI).sqrt()
             / (2.0 * std::f64::consts::PI * fn_hz);
+        // A repeated effect (a further structural mode) gets its parameters numbered.
+        let repeat = self
+            .effects
+            .iter()
+            .filter(|(e, _)| e.name() == effect.name())
+            .count();
         for (name, value) in effect.initial(noise, line_amp, &force_gain, shaft, peak) {
+            let name = if repeat > 0 {
+                format!("{name}_{}", repeat + 1)
+            } else {
+                name
+            };
             let step = if name.starts_with("ln_") || name.starts_with("logit_") {
                 1e-2
             } else {
@@ -329,6 +340,34 @@ impl TwinModel {
             serde_json::json!(2.0 * zeta * w),
         );
         out
+    }
+
+    /// Every effect of `kind` with its parameters, in the order they were added.
+    pub fn effects_of(&self, kind: &str) -> Vec<(&Effect, &[Param])> {
+        self.effects
+            .iter()
+            .enumerate()
+            .filter(|(_, (e, _))| e.name() == kind)
+            .map(|(i, (e, first))| {
+                let end = self
+                    .effects
+                    .get(i + 1)
+                    .map_or(self.params.len(), |(_, f)| *f);
+                (e, &self.params[*first..end])
+            })
+            .collect()
+    }
+
+    /// Natural frequencies of the modes the model has: the base mode, then every
+    /// extra resonance, Hz.
+    pub fn mode_frequencies(&self) -> Vec<f64> {
+        let mut f = vec![self.get("ln_fn_hz").map_or(3000.0, f64::exp)];
+        for (_, p) in self.effects_of("extra_resonance") {
+            if let Some(first) = p.first() {
+                f.push(first.value.exp());
+            }
+        }
+        f
     }
 
     fn effect_params(&self, kind: &str) -> Option<(&Effect, &[Param])> {
@@ -441,8 +480,17 @@ impl TwinModel {
             }
         }
         let mut params = BearingParams::from_modal(1.0, fn_hz, zeta, 1000.0, 0.05, 0.0, 0.0)?;
-        if let Some((_, p)) = self.effect_params("extra_resonance") {
-            let (f2, z2, share) = (p[0].value.exp(), p[1].value.exp(), p[2].value.exp());
+        // Extra structural modes: the first is the model's second DOF (driven by
+        // `share · F_r`); further ones are modal superposition — more linear modes,
+        // pairwise in extra 2-DOF systems with no coupling and no cubic term, driven by
+        // the same radial force, their accelerations added at the sensor.
+        let extra_modes: Vec<(f64, f64, f64)> = self
+            .effects_of("extra_resonance")
+            .iter()
+            .filter(|(_, p)| p.len() >= 3)
+            .map(|(_, p)| (p[0].value.exp(), p[1].value.exp(), p[2].value.exp()))
+            .collect();
+        if let Some(&(f2, z2, share)) = extra_modes.first() {
             let w2 = 2.0 * std::f64::consts::PI * f2;
             params.stiffness_angular = w2 * w2;
             params.damping_angular = 2.0 * z2 * w2;
@@ -458,6 +506,25 @@ impl TwinModel {
         let mut acc_r = vec![0.0f64; n_sim];
         let mut acc_t = vec![0.0f64; n_sim];
         model.simulate(State::REST, h, &force_r, &force_t, &mut acc_r, &mut acc_t)?;
+        for pair in extra_modes.get(1..).unwrap_or(&[]).chunks(2) {
+            let (fa, za, sa) = pair[0];
+            let (fb, zb, sb) = pair.get(1).copied().unwrap_or((fa, za, 0.0));
+            let modes = BearingParams::from_modal(1.0, fa, za, fb, zb, 0.0, 0.0)?;
+            let fa_r: Vec<f64> = force_r.iter().map(|f| sa * f).collect();
+            let fb_t: Vec<f64> = force_r.iter().map(|f| sb * f).collect();
+            let (mut a1, mut a2) = (vec![0.0f64; n_sim], vec![0.0f64; n_sim]);
+            Bearing2Dof::<f64>::new(&modes)?.simulate(
+                State::REST,
+                h,
+                &fa_r,
+                &fb_t,
+                &mut a1,
+                &mut a2,
+            )?;
+            for ((t, x), y) in acc_t.iter_mut().zip(&a1).zip(&a2) {
+                *t += x + y;
+            }
+        }
         let y_sim: Vec<f32> = acc_r
             .iter()
             .zip(&acc_t)
@@ -575,5 +642,48 @@ pub fn fault_name(fault: Option<DefectLocation>) -> &'static str {
         Some(DefectLocation::OuterRace) => "outer_race",
         Some(DefectLocation::InnerRace) => "inner_race",
         Some(DefectLocation::Ball) => "ball",
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::twin::signature::{Signature, SignatureConfig};
+    use pumptwin_core::bearing::BearingGeometry;
+
+    /// Two added structural modes (the second by modal superposition) each raise the
+    /// rendered PSD at their frequency; the model without them has no such peaks.
+    #[test]
+    fn further_modes_add_resonances_by_superposition() {
+        let op = OperatingPoint {
+            fs_hz: 12_000.0,
+            freqs: BearingGeometry::CWRU_6205_DE.frequencies(29.95),
+        };
+        let base = TwinModel::base(
+            op,
+            Some(DefectLocation::InnerRace),
+            3_000.0,
+            0.03,
+            20.0,
+            1e-4,
+        );
+        let no_line = |_: f64| None;
+        let one = base.with_effect(Effect::ExtraResonance { f_hz: 1_800.0 }, &no_line);
+        let two = one.with_effect(Effect::ExtraResonance { f_hz: 900.0 }, &no_line);
+        assert_eq!(two.mode_frequencies().len(), 3);
+        // Numbered parameters for the repeated effect.
+        assert!(two.get("ln_fn2_hz_2").is_some());
+        let cfg = SignatureConfig::fit(12_000.0);
+        let level = |m: &TwinModel, f: f32| -> f32 {
+            let y = m.render(24_000, 11).unwrap();
+            let sig = Signature::of(&y, &cfg).unwrap();
+            let k = (f / (cfg.fs_hz / cfg.psd_n as f32)).round() as usize;
+            10.0 * sig.psd[k].log10()
+        };
+        for (f, model_without) in [(1_800.0, &base), (900.0, &one)] {
+            let with = level(&two, f);
+            let without = level(model_without, f);
+            assert!(with > without + 6.0, "{f} Hz: {without:.1} -> {with:.1} dB");
+        }
     }
 }
