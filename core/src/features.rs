@@ -710,6 +710,20 @@ pub fn node_features<const W: usize>(
     if x.iter().any(|v| !v.is_finite()) {
         return Err(Error::NonFinite);
     }
+    // A constant segment of the *measured* samples (a stuck sensor) is degenerate: the
+    // noise compensation below would otherwise turn it into rounding-level ripple
+    // with features that look like numbers (edge-app's stuck-sensor test).
+    let constant = |s: &[f32]| {
+        let (lo, hi) = s
+            .iter()
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &v| {
+                (lo.min(v), hi.max(v))
+            });
+        hi <= lo
+    };
+    if x.chunks_exact(seg).any(constant) {
+        return Err(Error::Degenerate);
+    }
     let FeatureScratch {
         spectrum,
         env,
