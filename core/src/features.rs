@@ -658,7 +658,7 @@ pub fn subtract_noise_floor(
     let df = fs_hz / n as f32;
     let k_lo = ((NOISE_FLOOR_LO_HZ / df) as usize).max(1);
     let k_hi = ((band_limit_hz.min(0.5 * fs_hz) / df) as usize).min(half);
-    out.copy_from_slice(x);
+    copy_into(out, x);
     if k_hi <= k_lo + 2 * NOISE_SMOOTH_BINS {
         return Ok(()); // Too short a band to read a floor from: leave the signal.
     }
@@ -666,7 +666,7 @@ pub fn subtract_noise_floor(
     let (Some(dst), Some(src)) = (power.get_mut(..m), work.get(k_lo..k_hi)) else {
         return Ok(());
     };
-    dst.copy_from_slice(src);
+    copy_into(dst, src);
     let floor = select_nth(dst, (NOISE_FLOOR_QUANTILE * m as f32) as usize).unwrap_or(0.0);
     if !(floor.is_finite() && floor > 0.0) {
         return Ok(());
@@ -691,6 +691,15 @@ pub fn subtract_noise_floor(
         *o = z.re;
     }
     Ok(())
+}
+
+/// `dst.copy_from_slice(src)` for slices of equal length, as a loop: an outlined
+/// `copy_from_slice` keeps its length-mismatch panic at `opt-level = "z"` (the
+/// no-panic proof, RELIABILITY.md).
+fn copy_into(dst: &mut [f32], src: &[f32]) {
+    for (d, &s) in dst.iter_mut().zip(src) {
+        *d = s;
+    }
 }
 
 /// Features of one node over one window: `out[t]` is the row of segment `t`
@@ -733,7 +742,7 @@ pub fn node_features<const W: usize>(
     if cfg.noise_compensation {
         subtract_noise_floor(x, cfg.fs_hz, cfg.band_limit_hz, spectrum, power, env, clean)?;
     } else {
-        clean.copy_from_slice(x);
+        copy_into(clean, x);
     }
     let x: &[f32; W] = clean;
 
