@@ -60,18 +60,27 @@ open("seeds/candump_log/kinds.log", "w").write("""# comment
 (170000000) can0 1#
 """)
 
-# frame_decode: records [sel, dt, len, payload...] (see fuzz_targets/frame_decode.rs).
+# frame_decode: records [sel, dt, len, rep, payload...] (see fuzz_targets/frame_decode.rs).
 random.seed(7)
-def rec(sel, dt, payload, back=False):
-    return bytes([sel, dt, len(payload) | (0x80 if back else 0)]) + payload
+def rec(sel, dt, payload, rep=0, back=False):
+    return bytes([sel, dt, len(payload) | (0x80 if back else 0), rep]) + payload
+def noise(n): return bytes(random.randrange(256) for _ in range(n))
 seq = b""
 for k in range(40):
     for sel in (0x10, 0x12):
-        seq += rec(sel, 26, bytes([k & 0xFF]) + bytes(random.randrange(256) for _ in range(62)) + b"\0")
-    seq += rec(0x0C, 26, bytes(random.randrange(256) for _ in range(8)))
+        seq += rec(sel, 26, bytes([k & 0xFF]) + noise(62) + b"\0")
+    seq += rec(0x0C, 26, noise(8))
 seq += rec(5, 1, bytes([0x14, 0x1C, 0x26, 0x02, 0x10, 0x68, 0, 0]))
 seq += rec(0xE0, 0, b"") + rec(0xC0, 3, b"") + rec(6, 9, b"\1\2", back=True)
 open("seeds/frame_decode/mixed.bin", "wb").write(seq)
+# Enough samples for windows: each channel's frame repeated (counter incremented).
+win = b""
+for _ in range(3):
+    win += rec(0x10, 26, bytes([0]) + noise(62) + b"\0", rep=60)
+    win += rec(0x12, 26, bytes([0]) + noise(62) + b"\0", rep=60)
+    win += rec(0x0C, 3, noise(8), rep=250)
+seq = win
+open("seeds/frame_decode/windows.bin", "wb").write(seq)
 
 # Sensor maps and the DBC file.
 open("seeds/sensor_map_toml/cwru.toml", "w").write(open("../models/cwru-sensors.toml").read())
