@@ -51,6 +51,13 @@ TESTS=(
     quant::gat::tests::from_parts_checks_scales
     quant::gat::tests::adjacency_quantization_keeps_every_edge
     quant::gru::tests::from_parts_checks
+    dsstgat::tests::probabilities_sum_to_one
+    excitation::tests::bad_parameters
+    features::tests::feature_norm_standardizes_and_checks
+    features::tests::node_features_reject_bad_input
+    fft::tests::rejects_bad_lengths
+    fir::tests::bad_input_is_an_error
+    model_file::tests::largest_model_fits_the_bounds
 )
 if [ "${1:-}" = "--all" ]; then TESTS=(); fi
 
