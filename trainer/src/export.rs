@@ -697,14 +697,43 @@ fn model_card(
         "| nodes | {} (missing channels masked) |",
         NODES.join(", ")
     );
-    let _ = writeln!(s, "| input | {STEPS} steps × {N_NODES} nodes × {FEATURES} core features per 2048-sample window at 12 kHz (5 kHz band limit) |");
+    let _ = writeln!(s, "| input | {STEPS} steps × {N_NODES} nodes × {FEATURES} core features per 2048-sample window at 12 kHz (5 kHz band limit, measurement-noise floor subtracted: `core::features::subtract_noise_floor`) |");
+    let g = &data.graph;
+    let _ = writeln!(
+        s,
+        "| graph | {} (β = {}, window {} steps, τ_corr = {}), edge prior P = {:.3?} ({}) |",
+        if g.prior_weight >= 1.0 {
+            "static"
+        } else {
+            "dynamic, eqs. 1–3"
+        },
+        g.prior_weight,
+        g.window_steps,
+        g.tau_corr,
+        g.prior,
+        if cfg.graph_prior.is_empty() {
+            "uniform"
+        } else {
+            "simulated spectral correlation between the nodes, eq. 9"
+        }
+    );
     let _ = writeln!(s, "| classes | {} |", data.classes().join(", "));
     let _ = writeln!(s, "| data | CWRU bearing data (`{}`), protocol `{}`: {} train windows from {} records, {} test windows from {} records; no window overlaps across the split |",
         args.data.display(), data.protocol.name(), data.train.len(), data.train.n_records(), data.test.len(), data.test.n_records());
     let _ = writeln!(
         s,
-        "| training | burn 0.22.1, seed {}, {} epochs, batch {}, Adam lr {} (cosine) |",
-        cfg.seed, cfg.epochs, cfg.batch_size, cfg.learning_rate
+        "| training | burn 0.22.1, `{}`, seed {}, {} epochs, batch {}, Adam lr {} (cosine), node dropout {}; physics embedding (eq. 9: {} epochs of pre-training on simulated fault hypotheses): {}; co-adaptation (L_phy λ = {}, F_map on the closed loop's Θ λ = {}; heads not in this file): {} |",
+        cfg.report_name(),
+        cfg.seed,
+        cfg.epochs,
+        cfg.batch_size,
+        cfg.learning_rate,
+        cfg.node_dropout,
+        cfg.pretrain_epochs,
+        if cfg.uses_physics_embedding() { "yes" } else { "no" },
+        cfg.lambda_phy,
+        cfg.lambda_map,
+        if cfg.uses_coadaptation() { "yes" } else { "no" }
     );
     let _ = writeln!(s, "| quantization | post-training, calibrated by max-abs on the {} training windows; per-output-channel symmetric int8 weights, i32 biases, int8 activations, integer requantization (multiplier + shift, round half away from zero); sigmoid/tanh/exp as LUTs |", data.train.len());
     let _ = writeln!(

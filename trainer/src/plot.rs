@@ -85,8 +85,12 @@ pub fn line_plot(path: &Path, spec: &PlotSpec<'_>, series: &[Series]) -> Result<
             }
         }
     }
-    if x_range.0.partial_cmp(&x_range.1) != Some(std::cmp::Ordering::Less) {
+    if !(x_range.0.is_finite() && x_range.1.is_finite()) {
         return Err(PlotError::Empty(shown));
+    }
+    if x_range.0 >= x_range.1 {
+        // One x value (e.g. the loss curve of a one-epoch run): give it a width.
+        x_range = (x_range.0 - 0.5, x_range.1 + 0.5);
     }
     if spec.y_db {
         y_range.0 = y_range.0.max(y_range.1 - 80.0);
@@ -187,5 +191,11 @@ mod tests {
             line_plot(&path, &spec, &[empty]),
             Err(PlotError::Empty(_))
         ));
+        // A single point still draws.
+        let one = Series {
+            label: "one".into(),
+            points: vec![(1.0, 0.5)],
+        };
+        line_plot(&path, &spec, &[one]).unwrap();
     }
 }

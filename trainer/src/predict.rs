@@ -156,7 +156,10 @@ pub fn run_predict(args: &PredictArgs) -> Result<()> {
     } else {
         let (tcfg, _) = load_trained_config(&args.model)?;
         let device = Device::flex();
-        let net = Network::init(&tcfg, classes.len(), &device)?.load(&args.model)?;
+        // `valid()`: inference mode (batch norm on its running statistics, no dropout).
+        let net = Network::init(&tcfg, classes.len(), &device)?
+            .load(&args.model)?
+            .valid();
         let parts = BatchParts {
             raw: net.raw(),
             physics: false,

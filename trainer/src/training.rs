@@ -1467,7 +1467,12 @@ pub fn run_train(args: &TrainArgs) -> Result<()> {
     }
     write_json(&args.out.join(HISTORY_FILE), &outcome.history)?;
     let plain = Device::flex();
-    let net = outcome.network.valid();
+    // The figures are those of the saved weights as `eval` and `predict` load them
+    // (for batch-norm baselines the live module after `valid()` and the reloaded one
+    // differ slightly: burn keeps running statistics per thread).
+    let net = Network::init(&cfg, cfg.classes.len(), &plain)?
+        .load(&args.out.join(MODEL_FILE))?
+        .valid();
     let heads = outcome.heads.as_ref().map(Module::valid);
     let (report, inference) = evaluate_network(
         &net,
@@ -1586,7 +1591,10 @@ pub fn run_eval(args: &EvalArgs) -> Result<()> {
         );
     }
     let plain = Device::flex();
-    let net = Network::init(&cfg, data.classes().len(), &plain)?.load(&args.model)?;
+    // `valid()`: inference mode (batch norm on its running statistics, no dropout).
+    let net = Network::init(&cfg, data.classes().len(), &plain)?
+        .load(&args.model)?
+        .valid();
     let heads_path = args
         .model
         .parent()
@@ -1789,5 +1797,48 @@ mod tests {
             .unwrap();
         assert_eq!(mean_loss(&loaded, &data.train, &cfg, 2, &plain), after);
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// A batch-norm network (WDCNN) gives the same logits after save → load →
+    /// `valid()` as the trained one after `valid()`.
+    #[test]
+    fn batch_norm_network_survives_save_and_load() {
+        let mut data = tiny_protocol();
+        let mut rng = Xoshiro128pp::seed_from_u64(9);
+        for ds in [&mut data.train, &mut data.test] {
+            ds.raw = (0..ds.len() * Dataset::RAW_PER_WINDOW)
+                .map(|_| rng.normal() as f32)
+                .collect();
+            ds.spectra = vec![0.0; ds.len() * Dataset::SPEC_PER_WINDOW];
+        }
+        let mut cfg = TrainConfig::new().with_epochs(1).with_batch_size(8);
+        cfg.arch = "wdcnn".into();
+        let out = train(&cfg, &data, None, false, &mut |_| {}).unwrap();
+        let plain = Device::flex();
+        let live = out.network.valid();
+        let dir = std::env::temp_dir().join(format!("pumptwin-bn-test-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join(MODEL_FILE);
+        out.network.save(&path).unwrap();
+        let loaded = Network::init(&cfg, 2, &plain)
+            .unwrap()
+            .load(&path)
+            .unwrap()
+            .valid();
+        let parts = BatchParts {
+            raw: true,
+            physics: false,
+        };
+        let idx: Vec<usize> = (0..data.test.len()).collect();
+        let b = Batch::with_parts(&data.test, &idx, parts, &plain);
+        let a: Vec<f32> = live.output(&b).logits.into_data().try_into_vec().unwrap();
+        let c: Vec<f32> = loaded.output(&b).logits.into_data().try_into_vec().unwrap();
+        let _ = std::fs::remove_dir_all(&dir);
+        let diff = a
+            .iter()
+            .zip(&c)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0f32, f32::max);
+        assert!(diff < 1e-4, "max |Δlogit| {diff}: {a:?} vs {c:?}");
     }
 }
