@@ -15,15 +15,22 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-if ! rustup component list --toolchain nightly --installed 2>/dev/null | grep -q '^miri'; then
-    if ! rustup toolchain install nightly --profile minimal --component miri,rust-src >/tmp/pumptwin-miri-install.log 2>&1 \
-        && ! rustup component add --toolchain nightly miri rust-src >>/tmp/pumptwin-miri-install.log 2>&1; then
-        echo "miri: SKIPPED, the nightly miri component could not be installed:" >&2
-        tail -3 /tmp/pumptwin-miri-install.log >&2
+# The components for the nightly already installed (the image has one); a nightly
+# only if there is none (installing over an existing one would update it).
+have() { rustup component list --toolchain nightly --installed 2>/dev/null | grep -q "^$1"; }
+if ! have miri || ! have rust-src; then
+    log=/tmp/pumptwin-miri-install.log
+    if rustup toolchain list | grep -q '^nightly'; then
+        rustup component add --toolchain nightly miri rust-src >"$log" 2>&1 || true
+    else
+        rustup toolchain install nightly --profile minimal --component miri,rust-src >"$log" 2>&1 || true
+    fi
+    if ! have miri || ! have rust-src; then
+        echo "miri: SKIPPED, the nightly miri and rust-src components could not be installed:" >&2
+        tail -3 "$log" >&2
         exit 0
     fi
 fi
-rustup component add --toolchain nightly rust-src >/dev/null 2>&1 || true
 export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$(pwd)/target}/miri"
 
 TESTS=(
