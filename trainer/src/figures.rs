@@ -237,6 +237,8 @@ pub fn class_scatter(
     if !(x0 < x1 && y0 < y1) {
         anyhow::bail!("no spread to plot in {}", path.display());
     }
+    // Room on the right for the legend.
+    let x1 = x1 + 0.3 * (x1 - x0);
     let root = BitMapBackend::new(path, (900, 760)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| draw_err(path, e))?;
     let mut chart = ChartBuilder::on(&root)
@@ -267,6 +269,7 @@ pub fn class_scatter(
     }
     chart
         .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
         .background_style(WHITE.mix(0.85))
         .border_style(BLACK)
         .label_font(("sans-serif", 13))
