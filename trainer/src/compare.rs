@@ -14,7 +14,7 @@ use plotters::prelude::*;
 use serde::Serialize;
 
 use crate::data::windows::Protocol;
-use crate::plot::register_font;
+use crate::plot::{draw_legend, register_font};
 use crate::training::{run_train, value_name, Ablation, Arch, TrainArgs, METRICS_FILE};
 
 /// `pumptwin compare`.
@@ -342,14 +342,7 @@ pub fn radar(path: &Path, cmp: &Comparison) -> Result<()> {
                 PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
             });
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::LowerRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font(("sans-serif", 13))
-        .draw()
-        .map_err(|e| chart_err(path, e))?;
+    draw_legend(&mut chart, SeriesLabelPosition::LowerRight).map_err(|e| chart_err(path, e))?;
     root.present().map_err(|e| chart_err(path, e))?;
     Ok(())
 }
@@ -403,14 +396,7 @@ pub fn ablation_chart(path: &Path, cmp: &Comparison) -> Result<()> {
             .label(r.model.clone())
             .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], color.filled()));
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::LowerRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font(("sans-serif", 13))
-        .draw()
-        .map_err(|e| chart_err(path, e))?;
+    draw_legend(&mut chart, SeriesLabelPosition::LowerRight).map_err(|e| chart_err(path, e))?;
     root.present().map_err(|e| chart_err(path, e))?;
     Ok(())
 }

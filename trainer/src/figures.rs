@@ -26,7 +26,7 @@ use pumptwin_core::rng::Xoshiro128pp;
 
 use crate::dataset::{ProtocolData, N_NODES, STEPS};
 use crate::metrics::MetricsReport;
-use crate::plot::{line_plot, register_font, PlotSpec, Series};
+use crate::plot::{draw_legend, line_plot, register_font, PlotSpec, Series};
 use crate::training::{EpochStats, Inference};
 
 fn draw_err(path: &Path, e: impl std::fmt::Display) -> anyhow::Error {
@@ -267,14 +267,7 @@ pub fn class_scatter(
             .label(name.clone())
             .legend(move |(x, y)| Circle::new((x + 8, y), 4, color.filled()));
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font(("sans-serif", 13))
-        .draw()
-        .map_err(|e| draw_err(path, e))?;
+    draw_legend(&mut chart, SeriesLabelPosition::UpperRight).map_err(|e| draw_err(path, e))?;
     root.present().map_err(|e| draw_err(path, e))?;
     Ok(())
 }

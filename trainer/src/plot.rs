@@ -59,6 +59,24 @@ pub(crate) fn register_font() {
     });
 }
 
+/// Draw the series legend of `chart` at `position` (white box, black border, 13 px).
+pub(crate) fn draw_legend<'a, CT>(
+    chart: &mut ChartContext<'a, BitMapBackend<'a>, CT>,
+    position: SeriesLabelPosition,
+) -> Result<(), String>
+where
+    CT: CoordTranslate,
+{
+    chart
+        .configure_series_labels()
+        .position(position)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font(("sans-serif", 13))
+        .draw()
+        .map_err(|e| e.to_string())
+}
+
 /// Draw `series` as lines into a PNG at `path` (1000 × 420 px).
 pub fn line_plot(path: &Path, spec: &PlotSpec<'_>, series: &[Series]) -> Result<(), PlotError> {
     register_font();

@@ -478,6 +478,18 @@ pub struct NetOutput {
     pub node_states: Option<Tensor<3>>,
 }
 
+impl NetOutput {
+    /// The output of a network with only a class head (the baselines).
+    pub fn class_only(logits: Tensor<2>, embedding: Tensor<2>) -> Self {
+        Self {
+            logits,
+            indicators: None,
+            embedding,
+            node_states: None,
+        }
+    }
+}
+
 /// A classifier of windows that the generic training loop can train.
 pub trait Net: Module {
     /// Whether it reads `Batch::raw`.
@@ -503,12 +515,7 @@ impl Net for GcnGru {
     const RAW: bool = false;
     fn output(&self, b: &Batch) -> NetOutput {
         let (logits, embedding) = self.forward(b.x.clone(), b.mask.clone());
-        NetOutput {
-            logits,
-            indicators: None,
-            embedding,
-            node_states: None,
-        }
+        NetOutput::class_only(logits, embedding)
     }
 }
 
@@ -526,12 +533,7 @@ impl Net for Wdcnn {
     const RAW: bool = true;
     fn output(&self, b: &Batch) -> NetOutput {
         let (logits, embedding) = self.forward(masked_raw(b));
-        NetOutput {
-            logits,
-            indicators: None,
-            embedding,
-            node_states: None,
-        }
+        NetOutput::class_only(logits, embedding)
     }
 }
 
@@ -539,12 +541,7 @@ impl Net for CoFusionCnn {
     const RAW: bool = true;
     fn output(&self, b: &Batch) -> NetOutput {
         let (logits, embedding) = self.forward(masked_raw(b), b.mask.clone());
-        NetOutput {
-            logits,
-            indicators: None,
-            embedding,
-            node_states: None,
-        }
+        NetOutput::class_only(logits, embedding)
     }
 }
 
@@ -552,12 +549,7 @@ impl Net for Tst {
     const RAW: bool = true;
     fn output(&self, b: &Batch) -> NetOutput {
         let (logits, embedding) = self.forward(masked_raw(b));
-        NetOutput {
-            logits,
-            indicators: None,
-            embedding,
-            node_states: None,
-        }
+        NetOutput::class_only(logits, embedding)
     }
 }
 

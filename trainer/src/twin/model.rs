@@ -371,17 +371,7 @@ impl TwinModel {
     }
 
     fn effect_params(&self, kind: &str) -> Option<(&Effect, &[Param])> {
-        self.effects
-            .iter()
-            .enumerate()
-            .find(|(_, (e, _))| e.name() == kind)
-            .map(|(i, (e, first))| {
-                let end = self
-                    .effects
-                    .get(i + 1)
-                    .map_or(self.params.len(), |(_, f)| *f);
-                (e, &self.params[*first..end])
-            })
+        self.effects_of(kind).into_iter().next()
     }
 
     /// Simulate `n_out` samples at the record's rate with PRNG `seed`.
