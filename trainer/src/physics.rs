@@ -275,16 +275,16 @@ pub fn fit_theta(signal: &[f32], fs_hz: f32, rpm: f32) -> anyhow::Result<Theta> 
     ])
 }
 
-/// Training-side samples `[0, end)` of each record: the end of its last training
-/// window (the Θ fit never sees a test-side sample).
+/// Training-side samples `[0, end)` of each record with training windows: `end` is
+/// the end of its last training window, cut back to the start of its first test window
+/// if a test window starts earlier, so the Θ fit never sees a test-side sample
+/// (time-block tests the last 30 % of a record, so there the cut never applies).
 fn training_extent(split: &Split) -> BTreeMap<usize, usize> {
     let mut ext = BTreeMap::new();
     for (w, _) in &split.train {
         let e: &mut usize = ext.entry(w.record).or_insert(0);
         *e = (*e).max(w.end());
     }
-    // A record with test windows before its training windows (none of our protocols)
-    // would need a gap check; time-block tests the *last* 30 %.
     for (w, _) in &split.test {
         if let Some(e) = ext.get_mut(&w.record) {
             let first_test = w.start;
@@ -517,6 +517,33 @@ pub fn response_mse(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn theta_fits_see_no_test_sample() {
+        use crate::data::windows::Protocol;
+        let w = |record: usize, start: usize| {
+            (
+                WindowRef {
+                    record,
+                    start,
+                    len: 2048,
+                },
+                0,
+            )
+        };
+        let split = Split {
+            protocol: Protocol::TimeBlock,
+            classes: vec!["a".into()],
+            // Record 0: train then test (time-block); record 1: a test window first;
+            // record 2: test only.
+            train: vec![w(0, 0), w(0, 1024), w(1, 8192)],
+            test: vec![w(0, 6144), w(1, 0), w(2, 0)],
+        };
+        let ext = training_extent(&split);
+        assert_eq!(ext.get(&0), Some(&(1024 + 2048)));
+        assert_eq!(ext.get(&1), Some(&0));
+        assert_eq!(ext.get(&2), None);
+    }
 
     #[test]
     fn spectrum_shape_finds_the_tone_band() {
