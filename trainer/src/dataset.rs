@@ -217,15 +217,8 @@ pub fn featurize_windows(
             .collect();
         let copy_raw = |rec: &Recording, starts: &[usize], raw: &mut [f32]| {
             for (&k, &start) in positions.iter().zip(starts) {
-                for (i, name) in NODES.iter().enumerate() {
-                    if let Some(x) = rec
-                        .channel(name)
-                        .and_then(|c| c.samples.get(start..start + WINDOW))
-                    {
-                        let o = k * Dataset::RAW_PER_WINDOW + i * WINDOW;
-                        raw[o..o + WINDOW].copy_from_slice(x);
-                    }
-                }
+                let rw = Dataset::RAW_PER_WINDOW;
+                copy_window_samples(rec, start, &mut raw[k * rw..(k + 1) * rw]);
             }
         };
         let features = match noise {
@@ -255,6 +248,19 @@ pub fn featurize_windows(
         .map(|w| w.expect("every window belongs to a record"))
         .collect();
     (features, raw)
+}
+
+/// The samples of each node's channel in the window starting at `start`, node after
+/// node, into `out` (`[N, WINDOW]`); a missing channel's part is left as it is.
+pub fn copy_window_samples(rec: &Recording, start: usize, out: &mut [f32]) {
+    for (i, name) in NODES.iter().enumerate() {
+        let src = rec
+            .channel(name)
+            .and_then(|c| c.samples.get(start..start + WINDOW));
+        if let (Some(x), Some(dst)) = (src, out.get_mut(i * WINDOW..(i + 1) * WINDOW)) {
+            dst.copy_from_slice(x);
+        }
+    }
 }
 
 /// A recording holding the windows at `positions` end to end, each with noise at

@@ -17,14 +17,27 @@ use anyhow::{Context, Result};
 use burn::tensor::activation::softmax;
 use burn::tensor::Device;
 use pumptwin_core::dsstgat::{probabilities_into, Output};
-use pumptwin_core::graph::GraphConfig;
 use serde::Serialize;
 
 use crate::cli::{LoadedRecord, RecordArgs};
-use crate::dataset::{Dataset, NODES, N_INDICATORS, N_NODES};
+use crate::dataset::{copy_window_samples, Dataset, NODES, N_INDICATORS, N_NODES};
 use crate::export::{is_model_file, load_model_file, ARCH_INT8};
 use crate::featurize::{feature_config, window_features, window_graphs, MaskCounts, WINDOW};
 use crate::training::{load_trained_config, Batch, BatchParts, Network};
+
+/// The model `predict` runs.
+// One per command; boxing the burn network would only add indirection.
+#[allow(clippy::large_enum_variant)]
+enum PredictModel {
+    /// An int8 model file, through the core.
+    Int8(crate::export::LoadedModel),
+    /// A burn model (any architecture) with its config and normalization.
+    Burn {
+        cfg: crate::training::TrainConfig,
+        norm: pumptwin_core::features::FeatureNorm,
+        net: Network,
+    },
+}
 
 /// Samples between window starts.
 pub const HOP: usize = WINDOW / 2;
@@ -109,73 +122,70 @@ pub fn run_predict(args: &PredictArgs) -> Result<()> {
         .filter(|n| rec.channel(n).is_none())
         .map(|n| (*n).to_string())
         .collect();
-    // Model-specific normalization, graph and forward.
-    let int8_model = if is_model_file(&args.model) {
-        Some(load_model_file(&args.model)?)
-    } else {
-        None
-    };
-    let int8 = int8_model.is_some();
-    let (classes, norm, graph) = if let Some(m) = &int8_model {
-        let (norm, _) = m.norms()?;
-        (m.classes(), norm, m.file.graph_config::<N_NODES>()?)
+    // Model-specific normalization, graph and forward. A burn model's config (classes,
+    // graph, architecture) is read once and its network loaded in inference mode (batch
+    // norm on its running statistics, no dropout).
+    let device = Device::flex();
+    let model = if is_model_file(&args.model) {
+        PredictModel::Int8(load_model_file(&args.model)?)
     } else {
         let (cfg, norms) = load_trained_config(&args.model)?;
         let (norm, _) = norms.context("no normalization.json beside the burn model")?;
-        let graph: GraphConfig<N_NODES> = cfg.graph_config();
-        (cfg.classes.clone(), norm, graph)
+        let net = Network::init(&cfg, cfg.classes.len(), &device)?
+            .load(&args.model)?
+            .valid();
+        PredictModel::Burn { cfg, norm, net }
     };
+    let (classes, norm, graph) = match &model {
+        PredictModel::Int8(m) => {
+            let (norm, _) = m.norms()?;
+            (m.classes(), norm, m.file.graph_config::<N_NODES>()?)
+        }
+        PredictModel::Burn { cfg, norm, .. } => (cfg.classes.clone(), *norm, cfg.graph_config()),
+    };
+    // The raw samples too, for a raw-signal baseline.
+    let with_raw = matches!(&model, PredictModel::Burn { net, .. } if net.raw());
     let mut ds = Dataset::default();
-    let mut window_raw = vec![0.0f32; Dataset::RAW_PER_WINDOW];
     for w in &wf {
         let (x, a) = window_graphs(w, &norm, &graph)
             .map_err(|e| anyhow::anyhow!("window at sample {}: {e}", w.start))?;
         ds.push(&x, &a, &w.mask.0, &[0.0; N_INDICATORS], 0, 0);
-        // The raw samples too, for the raw-signal baselines.
-        window_raw.fill(0.0);
-        for (i, name) in NODES.iter().enumerate() {
-            if let Some(x) = rec
-                .channel(name)
-                .and_then(|c| c.samples.get(w.start..w.start + WINDOW))
-            {
-                window_raw[i * WINDOW..(i + 1) * WINDOW].copy_from_slice(x);
-            }
+        if with_raw {
+            let o = ds.raw.len();
+            ds.raw.resize(o + Dataset::RAW_PER_WINDOW, 0.0);
+            copy_window_samples(&rec, w.start, &mut ds.raw[o..]);
         }
-        ds.push_signals(&window_raw, &w.mask.0, rec.fs_hz);
     }
-    let probs: Vec<Vec<f32>> = if let Some(m) = &int8_model {
-        let outs: Vec<Output<16, 8>> = crate::export::int8_outputs(&m.model, &ds)?;
-        let c = m.model.classes();
-        outs.iter()
-            .map(|o| {
-                let mut p = vec![0.0f32; c];
-                probabilities_into(&o.logits[..c], m.model.logit_scale(), &mut p);
-                p
-            })
-            .collect()
-    } else {
-        let (tcfg, _) = load_trained_config(&args.model)?;
-        let device = Device::flex();
-        // `valid()`: inference mode (batch norm on its running statistics, no dropout).
-        let net = Network::init(&tcfg, classes.len(), &device)?
-            .load(&args.model)?
-            .valid();
-        let parts = BatchParts {
-            raw: net.raw(),
-            physics: false,
-        };
-        let idx: Vec<usize> = (0..ds.len()).collect();
-        let mut out = Vec::with_capacity(ds.len());
-        for chunk in idx.chunks(256) {
-            let b = Batch::with_parts(&ds, chunk, parts, &device);
-            let p = softmax(net.output(&b).logits, 1);
-            let v = p
-                .into_data()
-                .try_into_vec::<f32>()
-                .map_err(|e| anyhow::anyhow!("{e:?}"))?;
-            out.extend(v.chunks(classes.len()).map(<[f32]>::to_vec));
+    let probs: Vec<Vec<f32>> = match &model {
+        PredictModel::Int8(m) => {
+            let outs: Vec<Output<16, 8>> = crate::export::int8_outputs(&m.model, &ds)?;
+            let c = m.model.classes();
+            outs.iter()
+                .map(|o| {
+                    let mut p = vec![0.0f32; c];
+                    probabilities_into(&o.logits[..c], m.model.logit_scale(), &mut p);
+                    p
+                })
+                .collect()
         }
-        out
+        PredictModel::Burn { net, .. } => {
+            let parts = BatchParts {
+                raw: with_raw,
+                physics: false,
+            };
+            let idx: Vec<usize> = (0..ds.len()).collect();
+            let mut out = Vec::with_capacity(ds.len());
+            for chunk in idx.chunks(256) {
+                let b = Batch::with_parts(&ds, chunk, parts, &device);
+                let p = softmax(net.output(&b).logits, 1);
+                let v = p
+                    .into_data()
+                    .try_into_vec::<f32>()
+                    .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+                out.extend(v.chunks(classes.len()).map(<[f32]>::to_vec));
+            }
+            out
+        }
     };
     let mut windows = Vec::with_capacity(wf.len());
     let mut class_counts: BTreeMap<String, usize> = BTreeMap::new();
@@ -203,10 +213,9 @@ pub fn run_predict(args: &PredictArgs) -> Result<()> {
     let report = Prediction {
         input: args.record.input.display().to_string(),
         model: args.model.display().to_string(),
-        arch: if int8 {
-            ARCH_INT8.to_string()
-        } else {
-            load_trained_config(&args.model)?.0.report_name()
+        arch: match &model {
+            PredictModel::Int8(_) => ARCH_INT8.to_string(),
+            PredictModel::Burn { cfg, .. } => cfg.report_name(),
         },
         fs_hz_input: raw.fs_hz,
         fs_hz_model: rec.fs_hz,
