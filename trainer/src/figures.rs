@@ -347,14 +347,11 @@ pub fn run_figures(
         &|r, c| Some(report.confusion[r][c].to_string()),
     )?;
     // Noise curve.
-    let mut pts = vec![(f32::INFINITY, report.accuracy as f32)];
-    pts.clear();
-    pts.extend(
-        report
-            .noise
-            .iter()
-            .map(|p| (p.snr_db, 100.0 * p.accuracy as f32)),
-    );
+    let pts: Vec<(f32, f32)> = report
+        .noise
+        .iter()
+        .map(|p| (p.snr_db, 100.0 * p.accuracy as f32))
+        .collect();
     line_plot(
         &dir.join("noise.png"),
         &PlotSpec {

@@ -19,16 +19,13 @@
 //! evaluated on them.
 //!
 //! The physics-consistency keys of Table 4 (`spectral_consistency`, `response_mse`,
-//! `parameter_drift`) are written as `null`: they need the physics-embedded training
-//! path (eqs. 10–11), which this model does not have yet.
+//! `parameter_drift`) are filled by `crate::training::evaluate_network` for a model
+//! with co-adaptation heads (definitions there), and `null` for every other model.
 
 use anyhow::{Context, Result};
-use burn::tensor::Device;
 use serde::Serialize;
 
 use crate::dataset::{Corpus, Dataset, NoiseSpec, ProtocolData};
-use crate::model::DsStgat;
-use crate::training::{predict, TrainConfig, ARCH};
 
 /// SNRs of the noise-robustness curve, in dB.
 pub const NOISE_SNR_DB: [f32; 6] = [10.0, 6.0, 2.0, 0.0, -2.0, -4.0];
@@ -188,26 +185,12 @@ pub struct MetricsReport {
     pub fault_only_accuracy: f64,
     /// Wall time of the training loop, seconds (`null` for `eval`).
     pub train_seconds: Option<f64>,
-    /// Spectral consistency loss (Table 4): `null` until the physics path exists.
+    /// Spectral consistency loss (Table 4); `null` without co-adaptation heads.
     pub spectral_consistency: Option<f64>,
-    /// Response MSE (Table 4): `null` until the physics path exists.
+    /// Response MSE (Table 4), dB²; `null` without co-adaptation heads.
     pub response_mse: Option<f64>,
-    /// Parameter drift range (Table 4): `null` until the physics path exists.
+    /// Parameter drift (Table 4), z-units; `null` without co-adaptation heads.
     pub parameter_drift: Option<f64>,
-}
-
-/// Evaluate a burn inference model (from `.valid()` or loaded on `device`) on the
-/// test side of `data`, clean and at every [`NOISE_SNR_DB`], into the report.
-pub fn evaluate(
-    model: &DsStgat,
-    data: &ProtocolData,
-    corpus: &Corpus,
-    cfg: &TrainConfig,
-    train_seconds: Option<f64>,
-    device: &Device,
-) -> Result<MetricsReport> {
-    let predictor = |ds: &Dataset| Ok(predict(model, ds, cfg.eval_batch_size, device));
-    evaluate_with(&predictor, ARCH, data, corpus, cfg.seed, train_seconds)
 }
 
 /// Evaluate any classifier of windows (`predictor`: one class per window of a data

@@ -712,19 +712,6 @@ pub fn infer(
     out
 }
 
-/// Class predictions of a DS-STGAT inference model on `ds`, with inputs built on
-/// `device` (a device without autodiff).
-pub fn predict(model: &DsStgat, ds: &Dataset, batch_size: usize, device: &Device) -> Vec<usize> {
-    infer(
-        &Network::DsStgat(model.clone()),
-        None,
-        ds,
-        batch_size,
-        device,
-    )
-    .classes
-}
-
 /// Mean total loss (weighted CE + λ_ind·indicator MSE) of a DS-STGAT inference model
 /// over `ds`, with the class weights of `cfg` fitted on `ds`.
 pub fn mean_loss(
@@ -1765,10 +1752,9 @@ mod tests {
         let Network::DsStgat(model2) = again.network.valid() else {
             panic!("dsstgat expected")
         };
-        assert_eq!(
-            predict(&model, &data.test, 5, &plain),
-            predict(&model2, &data.test, 5, &plain)
-        );
+        let classes =
+            |m: &DsStgat| infer(&Network::DsStgat(m.clone()), None, &data.test, 5, &plain).classes;
+        assert_eq!(classes(&model), classes(&model2));
         assert_eq!(mean_loss(&model2, &data.train, &cfg, 2, &plain), after);
         let out = TrainOutcome {
             network: Network::DsStgat(model),

@@ -629,17 +629,13 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
     // --- PSD bands: a structural mode excited by the defect (or by the background in a
     // healthy bearing), else an unexplained band.
     let rate = model.fault.map(|loc| model.op.freqs.impact_rate(loc));
+    let modes = model.mode_frequencies();
     if let Some(b) = analysis
         .psd
         .iter()
         .filter(|c| c.kind == "band")
         // A band on a mode the model already has is that mode's misfit, not a new one.
-        .filter(|c| {
-            model
-                .mode_frequencies()
-                .iter()
-                .all(|f| (c.f_hz - f).abs() > 0.12 * f)
-        })
+        .filter(|c| modes.iter().all(|f| (c.f_hz - f).abs() > 0.12 * f))
         .max_by(|a, b| {
             (a.excess_db * a.width_hz as f32).total_cmp(&(b.excess_db * b.width_hz as f32))
         })
