@@ -601,7 +601,8 @@ pub const NOISE_FLOOR_LO_HZ: f32 = 200.0;
 /// noise), never from out-of-band content, and the same transform is applied to
 /// every window in training and in service. On a clean record it removes little:
 /// the floor is the record's own background. β = 1 (no over-subtraction) was best
-/// on CWRU under white noise (0 dB: β = 0.6 → 73 %, 1 → 81 %, 2 → 69 %).
+/// on CWRU under white noise in development runs of the time-block DS-STGAT (0 dB:
+/// β = 0.6 → 73 %, 1 → 81 %, 2 → 69 %; see `docs/evaluation-cwru.md`).
 ///
 /// `spectrum` and `out` must have `x.len()` entries (a power of two); `power` and
 /// `work` at least `x.len()/2 + 1`.
