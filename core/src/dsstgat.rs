@@ -37,7 +37,7 @@
 //! # Memory
 //! [`DsStgat`] is plain data (its size is the sum of its kernels'); [`Scratch`] holds
 //! `T·N·H + 4·N·H + N·F` bytes plus the GAT/GRU scratch (≈ 1.4 KiB for `T = 8`,
-//! `N = 3`, `H = 32`, `F = 20`). Nothing allocates.
+//! `N = 3`, `H = 32`, `F = 32`). Nothing allocates.
 
 use crate::error::{Error, Result};
 use crate::graph::{Adjacency, NodeMask};
@@ -680,7 +680,7 @@ mod tests {
 
     const T: usize = 8;
     const N: usize = 3;
-    const F: usize = 20;
+    const F: usize = crate::features::FEATURE_DIM;
     const H: usize = 16;
     const C: usize = 5;
     const K: usize = 4;

@@ -1,12 +1,12 @@
 //! The model file: one postcard-encoded file with everything the edge needs to run a
 //! trained DS-STGAT, decoded without allocation into fixed-capacity buffers.
 //!
-//! # Layout (format version 2)
+//! # Layout (format version 3)
 //!
 //! | offset | bytes | field | encoding |
 //! |---|---|---|---|
 //! | 0 | 8 | magic [`MAGIC`] = `PTWINMDL` | ASCII |
-//! | 8 | 2 | format version [`FORMAT_VERSION`] = 2 | u16, little-endian |
+//! | 8 | 2 | format version [`FORMAT_VERSION`] = 3 | u16, little-endian |
 //! | 10 | 4 | payload length `L` | u32, little-endian |
 //! | 14 | `L` | payload: a [`ModelFile`] | postcard 1.x |
 //! | 14 + `L` | 4 | CRC-32 of the payload (see [`crc32`]) | u32, little-endian |
@@ -112,7 +112,9 @@
 //!
 //! Any change to the payload (a field added, removed, reordered or retyped, a
 //! capacity lowered) needs a new [`FORMAT_VERSION`]; a reader rejects every version
-//! but its own rather than guess.
+//! but its own rather than guess. Version 3: node features went from 20 to 32 (the
+//! four linear band shares became sixteen log band shares), so a version-2 file's
+//! normalization and embedding no longer fit the features the core computes.
 
 use heapless::{String, Vec};
 use serde::{Deserialize, Serialize};
@@ -131,7 +133,7 @@ use crate::simulator::BearingParams;
 /// The first 8 bytes of every model file.
 pub const MAGIC: [u8; 8] = *b"PTWINMDL";
 /// The format version this core writes and reads.
-pub const FORMAT_VERSION: u16 = 2;
+pub const FORMAT_VERSION: u16 = 3;
 /// Bytes before the payload: magic, version, payload length.
 pub const HEADER_LEN: usize = 14;
 /// Bytes after the payload: the CRC-32.
@@ -1247,7 +1249,7 @@ impl ModelFile {
             d.features,
             FEATURE_DIM,
             FEATURE_DIM,
-            "features F must equal FEATURE_DIM (20)",
+            "features F must equal FEATURE_DIM (32)",
         )?;
         check_range(
             d.steps,
@@ -2093,13 +2095,13 @@ mod tests {
         assert_eq!(decode(&f), Err(Error::ModelMagic));
 
         let mut f = file.clone();
-        for old in [1u16, 3] {
+        for old in [1u16, 2, 4] {
             f[8..10].copy_from_slice(&old.to_le_bytes());
             assert_eq!(
                 decode(&f),
                 Err(Error::ModelVersion {
                     found: old,
-                    supported: 2
+                    supported: FORMAT_VERSION
                 })
             );
         }

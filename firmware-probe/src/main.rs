@@ -24,7 +24,7 @@ mod golden {
 }
 use golden::{F, N, T};
 
-/// The shipped model's int8 network: `F` = 20 features, `H` = 32, room for 16 classes
+/// The shipped model's int8 network: `F` = 32 features, `H` = 32, room for 16 classes
 /// and 8 indicators (the shipped heads are zero-padded up to these).
 type Net = DsStgat<F, 32, 16, 8>;
 type NetScratch = Scratch<T, N, F, 32>;
@@ -216,7 +216,7 @@ fn main() -> ! {
     );
     say!(
         c,
-        "model file {} B in flash; size_of ModelFile {} B, DsStgat<20,32,16,8> {} B, Scratch<8,3,20,32> {} B, Output {} B",
+        "model file {} B in flash; size_of ModelFile {} B, DsStgat<F,32,16,8> {} B, Scratch<8,3,F,32> {} B, Output {} B",
         MODEL_BYTES.len(),
         size_of::<ModelFile>(),
         size_of::<Net>(),

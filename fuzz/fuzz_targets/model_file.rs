@@ -6,12 +6,13 @@
 
 use libfuzzer_sys::fuzz_target;
 use pumptwin_core::dsstgat::{DsStgat, Output, Scratch};
+use pumptwin_core::features::FEATURE_DIM;
 use pumptwin_core::graph::{Adjacency, NodeMask};
 use pumptwin_core::model_file::{self, crc32, ModelFile, FORMAT_VERSION, MAGIC};
 
-/// The shipped model's shapes (the gateway's): F = 20, H = 32, ≤ 16 classes, ≤ 8
+/// The shipped model's shapes (the gateway's): F = 32, H = 32, ≤ 16 classes, ≤ 8
 /// indicators; 8 steps, 3 nodes.
-type Net = DsStgat<20, 32, 16, 8>;
+type Net = DsStgat<FEATURE_DIM, 32, 16, 8>;
 
 fn framed(payload: &[u8]) -> Vec<u8> {
     let mut f = Vec::with_capacity(payload.len() + 18);
@@ -39,14 +40,14 @@ fn exercise(bytes: &[u8], model: &mut ModelFile) {
     if net.load(model).is_err() {
         return;
     }
-    let x = [[[0.25f32; 20]; 3]; 8];
+    let x = [[[0.25f32; FEATURE_DIM]; 3]; 8];
     let mut eye = Adjacency::<3>::ZERO;
     for i in 0..3 {
         eye.0[i][i] = 1.0;
     }
     let adj = [eye; 8];
     let mut out = Output::<16, 8>::default();
-    let mut scratch = Box::new(Scratch::<8, 3, 20, 32>::new());
+    let mut scratch = Box::new(Scratch::<8, 3, FEATURE_DIM, 32>::new());
     let _ = net.forward::<8, 3>(&x, &adj, &NodeMask::ALL, &mut out, &mut scratch);
 }
 

@@ -13,6 +13,7 @@ use std::time::Instant;
 use burn::module::Module;
 use burn::tensor::{Device, Tensor, TensorData};
 use pumptwin_core::dsstgat::Output;
+use pumptwin_core::features::FEATURE_DIM;
 use pumptwin_core::graph::{Adjacency, NodeMask};
 use pumptwin_trainer::export::{load_model_file, Golden};
 use pumptwin_trainer::training::load_trained_config;
@@ -31,8 +32,8 @@ fn main() -> anyhow::Result<()> {
     match mode.as_str() {
         "int8" => {
             let loaded = load_model_file(&root.join("models/dsstgat-cwru-tb.ptm"))?;
-            let x: [[[f32; 20]; 3]; 8] = std::array::from_fn(|t| {
-                std::array::from_fn(|i| std::array::from_fn(|f| w.x[(t * 3 + i) * 20 + f]))
+            let x: [[[f32; FEATURE_DIM]; 3]; 8] = std::array::from_fn(|t| {
+                std::array::from_fn(|i| std::array::from_fn(|f| w.x[(t * 3 + i) * FEATURE_DIM + f]))
             });
             let adj: [Adjacency<3>; 8] = std::array::from_fn(|t| {
                 Adjacency(std::array::from_fn(|i| {
@@ -59,7 +60,10 @@ fn main() -> anyhow::Result<()> {
                 .model_config(cfg.classes.len())
                 .init(&device)
                 .try_load_file(&path)?;
-            let x = Tensor::<4>::from_data(TensorData::new(w.x.clone(), [1, 8, 3, 20]), &device);
+            let x = Tensor::<4>::from_data(
+                TensorData::new(w.x.clone(), [1, 8, 3, FEATURE_DIM]),
+                &device,
+            );
             let adj = Tensor::<4>::from_data(TensorData::new(w.adj.clone(), [1, 8, 3, 3]), &device);
             let mask: Vec<f32> = w.mask.iter().map(|&m| if m { 1.0 } else { 0.0 }).collect();
             let mask = Tensor::<2>::from_data(TensorData::new(mask, [1, 3]), &device);

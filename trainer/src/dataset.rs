@@ -19,7 +19,7 @@
 //!
 //! # Shapes (per side, `W` windows, row-major)
 //! - `x`: `[W, T, N, F]` normalized node features (`T` = 8 steps, `N` = 3 nodes
-//!   DE/FE/BA, `F` = 20 features); an absent node's rows are 0
+//!   DE/FE/BA, `F` = 32 features); an absent node's rows are 0
 //! - `adj`: `[W, T, N, N]` the core's normalized adjacency `Â_t` (row `i` = neighbours
 //!   of node `i`; an absent node keeps only its self-loop)
 //! - `mask`: `[W, N]` present nodes (the normal record 97 has no BA channel)
@@ -38,7 +38,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use pumptwin_core::bearing::BearingGeometry;
-use pumptwin_core::features::{FeatureNorm, FEATURE_DIM};
+use pumptwin_core::features::{band_share, FeatureNorm, FEATURE_DIM, SPECTRAL_BANDS};
 use pumptwin_core::graph::{Adjacency, GraphConfig};
 use pumptwin_core::rng::Xoshiro128pp;
 
@@ -76,8 +76,8 @@ pub const INDICATOR_NAMES: [&str; N_INDICATORS] = [
 const RMS: usize = 1;
 /// Index of `kurtosis` in a feature row.
 const KURTOSIS: usize = 3;
-/// Index of `band_energy_1` (the four band shares follow it).
-const BAND_ENERGY_1: usize = 11;
+/// Index of `band_db_01` (the other band shares follow it).
+const BAND_DB_01: usize = 11;
 
 /// Errors building a data set.
 #[non_exhaustive]
@@ -313,7 +313,8 @@ fn noisy_windows(
 ///
 /// ```text
 /// impact_intensity     = mean over present (t, i) of kurtosis_ti
-/// dominant_band_ratio  = mean over present (t, i) of max_b band_energy_b,ti
+/// dominant_band_ratio  = mean over present (t, i) of max_b band share_b,ti
+///                        (the share from its `band_db` feature)
 /// node_energy_diff_db  = mean over t of 20·log10( rms_t,0 / mean_{j≠0 present} rms_t,j )
 ///                        (0 when node 0 or every other node is absent)
 /// graph_inconsistency  = 1 − mean over t of mean_{i≠j, both present} Â_t,ij
@@ -335,8 +336,8 @@ pub fn indicator_targets(
     for step in &w.features {
         for &i in &present {
             kurt += f64::from(step[i][KURTOSIS]);
-            let shares = &step[i][BAND_ENERGY_1..BAND_ENERGY_1 + 4];
-            band += f64::from(shares.iter().copied().fold(f32::MIN, f32::max));
+            let bands = &step[i][BAND_DB_01..BAND_DB_01 + SPECTRAL_BANDS];
+            band += f64::from(band_share(bands.iter().copied().fold(f32::MIN, f32::max)));
         }
     }
     let others: Vec<usize> = present.iter().copied().filter(|&i| i != 0).collect();
@@ -730,15 +731,15 @@ impl ProtocolData {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use pumptwin_core::features::FEATURE_NAMES;
+    use pumptwin_core::features::{band_db, FEATURE_NAMES};
     use pumptwin_core::graph::NodeMask;
 
     #[test]
     fn feature_indices_match_the_core() {
         assert_eq!(FEATURE_NAMES[RMS], "rms");
         assert_eq!(FEATURE_NAMES[KURTOSIS], "kurtosis");
-        assert_eq!(FEATURE_NAMES[BAND_ENERGY_1], "band_energy_1");
-        assert_eq!(FEATURE_NAMES[BAND_ENERGY_1 + 3], "band_energy_4");
+        assert_eq!(FEATURE_NAMES[BAND_DB_01], "band_db_01");
+        assert_eq!(FEATURE_NAMES[BAND_DB_01 + SPECTRAL_BANDS - 1], "band_db_16");
     }
 
     #[test]
@@ -753,8 +754,11 @@ mod tests {
             step[1][KURTOSIS] = 3.0;
             step[0][RMS] = 1.0;
             step[1][RMS] = 0.1;
-            step[0][BAND_ENERGY_1 + 2] = 0.7;
-            step[1][BAND_ENERGY_1] = 0.5;
+            // Band features are dB shares: the largest bands hold 0.7 and 0.5.
+            step[0][BAND_DB_01..BAND_DB_01 + SPECTRAL_BANDS].fill(-40.0);
+            step[1][BAND_DB_01..BAND_DB_01 + SPECTRAL_BANDS].fill(-40.0);
+            step[0][BAND_DB_01 + 2] = band_db(0.7);
+            step[1][BAND_DB_01] = band_db(0.5);
             // The absent node's values must not count.
             step[2][KURTOSIS] = 1000.0;
         }
@@ -764,7 +768,7 @@ mod tests {
         }
         let ind = indicator_targets(&w, &a);
         assert!((ind[0] - 4.0).abs() < 1e-6, "{ind:?}");
-        assert!((ind[1] - 0.6).abs() < 1e-6, "{ind:?}");
+        assert!((ind[1] - 0.6).abs() < 1e-5, "{ind:?}");
         assert!((ind[2] - 20.0).abs() < 1e-4, "{ind:?}");
         assert!((ind[3] - 0.5).abs() < 1e-6, "{ind:?}");
     }

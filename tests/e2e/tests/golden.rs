@@ -7,6 +7,7 @@
 use std::path::{Path, PathBuf};
 
 use pumptwin_core::dsstgat::Output;
+use pumptwin_core::features::FEATURE_DIM;
 use pumptwin_core::graph::{Adjacency, NodeMask};
 use pumptwin_core::model_file;
 use pumptwin_core::Error;
@@ -52,13 +53,13 @@ fn shipped_models_match_their_golden_vectors() {
         );
         let loaded = load_model_file(&model_path).unwrap();
         let classes = loaded.model.classes();
-        assert_eq!(golden.shape, [8, 3, 20]);
+        assert_eq!(golden.shape, [8, 3, FEATURE_DIM]);
         assert_eq!(loaded.model.logit_scale().get(), golden.logit_scale);
         let mut scratch = Box::new((Default::default(), Default::default()));
         let mut worst = 0.0f32;
         for (k, w) in golden.windows.iter().enumerate() {
-            let x: [[[f32; 20]; 3]; 8] = std::array::from_fn(|t| {
-                std::array::from_fn(|i| std::array::from_fn(|f| w.x[(t * 3 + i) * 20 + f]))
+            let x: [[[f32; FEATURE_DIM]; 3]; 8] = std::array::from_fn(|t| {
+                std::array::from_fn(|i| std::array::from_fn(|f| w.x[(t * 3 + i) * FEATURE_DIM + f]))
             });
             let adj: [Adjacency<3>; 8] = std::array::from_fn(|t| {
                 Adjacency(std::array::from_fn(|i| {

@@ -11,6 +11,12 @@
 //! | `time-block` | first part of each record's windows | last 30 % of each record's windows, after a gap of one window length | 10 |
 //! | `cross-load` | 0, 1, 2 HP records | 3 HP records | 9 faults (normal excluded: it exists at 0 HP only) |
 //! | `fault-size` | 0.007" and 0.021" records, all loads | 0.014" records | IR, B, OR (normal excluded) |
+//! | `time-block-dev` | `time-block`'s training side, its first part | its last 30 %, after the same gap | 10 |
+//! | `cross-load-dev` | 0, 1 HP records | 2 HP records | 9 faults |
+//!
+//! The two `-dev` protocols are where settings (feature constants, loss weights,
+//! epochs) are chosen: they never see a test window of `time-block` or `cross-load`,
+//! so those stay measurements on data nothing was tuned on.
 //!
 //! `time-block` alone still shares the record (same run, same sensor mounting) between
 //! the sides; the two record-level protocols ask whether the model generalises to an
@@ -110,6 +116,13 @@ pub enum Protocol {
     CrossLoad,
     /// Train on 0.007" and 0.021" defects, test on 0.014".
     FaultSize,
+    /// Development split inside `time-block`'s training side: per record, the
+    /// training side's own last 30 % test. For choosing settings; never touches a
+    /// `time-block` test window.
+    TimeBlockDev,
+    /// Development split inside `cross-load`'s training side: 0–1 HP train, 2 HP
+    /// test. For choosing settings; never touches a 3 HP record.
+    CrossLoadDev,
 }
 
 impl Protocol {
@@ -120,12 +133,27 @@ impl Protocol {
         Protocol::FaultSize,
     ];
 
+    /// The development protocols: settings are chosen on these, so that the
+    /// figures of [`Protocol::ALL`] stay measurements on data nothing was tuned on.
+    pub const DEV: [Protocol; 2] = [Protocol::TimeBlockDev, Protocol::CrossLoadDev];
+
+    /// Every protocol the CLI accepts.
+    pub const EVERY: [Protocol; 5] = [
+        Protocol::TimeBlock,
+        Protocol::CrossLoad,
+        Protocol::FaultSize,
+        Protocol::TimeBlockDev,
+        Protocol::CrossLoadDev,
+    ];
+
     /// The protocol's name as used on the command line and in reports.
     pub fn name(self) -> &'static str {
         match self {
             Self::TimeBlock => "time-block",
             Self::CrossLoad => "cross-load",
             Self::FaultSize => "fault-size",
+            Self::TimeBlockDev => "time-block-dev",
+            Self::CrossLoadDev => "cross-load-dev",
         }
     }
 
@@ -143,6 +171,14 @@ impl Protocol {
                 "fault types IR/B/OR; train on 0.007\" and 0.021\" records, test on 0.014\"; \
                  all loads; normal excluded"
             }
+            Self::TimeBlockDev => {
+                "development split: 10 classes; per record, time-block's training side only, \
+                 its last 30 % of windows test, earlier windows one window length before train"
+            }
+            Self::CrossLoadDev => {
+                "development split: 9 fault classes; train on 0-1 HP records, test on 2 HP; \
+                 3 HP unused"
+            }
         }
     }
 }
@@ -156,7 +192,7 @@ impl fmt::Display for Protocol {
 impl FromStr for Protocol {
     type Err = SplitError;
     fn from_str(s: &str) -> Result<Self, Self::Err> {
-        Self::ALL
+        Self::EVERY
             .into_iter()
             .find(|p| p.name() == s)
             .ok_or_else(|| SplitError::UnknownProtocol(s.to_string()))
@@ -299,7 +335,10 @@ pub enum SplitError {
         hop: usize,
     },
     /// A protocol name that does not exist.
-    #[error("unknown protocol `{0}` (expected time-block, cross-load or fault-size)")]
+    #[error(
+        "unknown protocol `{0}` (expected time-block, cross-load, fault-size, \
+         time-block-dev or cross-load-dev)"
+    )]
     UnknownProtocol(String),
     /// Samples of a record appear on both sides.
     #[error(
@@ -387,6 +426,41 @@ pub fn cross_load(records: &[RecordMeta], cfg: &WindowConfig) -> Result<Split, S
     })
 }
 
+/// `time-block-dev`: [`time_block`] applied to each record cut at the end of its last
+/// `time-block` training window, so train and test both come from `time-block`'s
+/// training side (with the same gap between them).
+pub fn time_block_dev(records: &[RecordMeta], cfg: &WindowConfig) -> Result<Split, SplitError> {
+    let outer = time_block(records, cfg)?;
+    let mut train_end = vec![0usize; records.len()];
+    for (w, _) in &outer.train {
+        if let Some(e) = train_end.get_mut(w.record) {
+            *e = (*e).max(w.end());
+        }
+    }
+    let cut: Vec<RecordMeta> = records
+        .iter()
+        .zip(&train_end)
+        .map(|(r, &n)| RecordMeta { n_samples: n, ..*r })
+        .collect();
+    let mut split = time_block(&cut, cfg)?;
+    split.protocol = Protocol::TimeBlockDev;
+    Ok(split)
+}
+
+/// `cross-load-dev`: the 9 fault classes; 0–1 HP records train, 2 HP records test.
+pub fn cross_load_dev(records: &[RecordMeta], cfg: &WindowConfig) -> Result<Split, SplitError> {
+    cfg.validate()?;
+    let classes = &CLASSES_10[1..];
+    by_record(Protocol::CrossLoadDev, classes, records, cfg, |r| {
+        let label = class_index(classes, r.class_10()?)?;
+        match r.load_hp {
+            0 | 1 => Some((Side::Train, label)),
+            2 => Some((Side::Test, label)),
+            _ => None,
+        }
+    })
+}
+
 /// `fault-size`: classes IR, B, OR; 0.007" and 0.021" records train, 0.014" test.
 pub fn fault_size(records: &[RecordMeta], cfg: &WindowConfig) -> Result<Split, SplitError> {
     cfg.validate()?;
@@ -411,6 +485,8 @@ pub fn build_split(
         Protocol::TimeBlock => time_block(records, cfg),
         Protocol::CrossLoad => cross_load(records, cfg),
         Protocol::FaultSize => fault_size(records, cfg),
+        Protocol::TimeBlockDev => time_block_dev(records, cfg),
+        Protocol::CrossLoadDev => cross_load_dev(records, cfg),
     }
 }
 
@@ -488,7 +564,7 @@ mod tests {
 
     #[test]
     fn protocol_names_round_trip() {
-        for p in Protocol::ALL {
+        for p in Protocol::EVERY {
             assert_eq!(p.name().parse::<Protocol>().expect("known"), p);
             assert_eq!(p.to_string(), p.name());
         }
@@ -498,7 +574,7 @@ mod tests {
         );
         assert!("random".parse::<Protocol>().is_err());
         use clap::ValueEnum;
-        for p in Protocol::ALL {
+        for p in Protocol::EVERY {
             let v = p.to_possible_value().expect("visible");
             assert_eq!(v.get_name(), p.name(), "clap name matches");
         }
@@ -571,6 +647,47 @@ mod tests {
         }
     }
 
+    /// A development split uses only the training side of its outer protocol: no
+    /// dev window (train or test) shares a sample with an outer test window.
+    #[test]
+    fn dev_splits_stay_inside_the_outer_training_side() {
+        let cfg = WindowConfig::default();
+        let mut records = vec![meta(FaultType::Normal, 0, 0, 243_938)];
+        for ft in [FaultType::InnerRace, FaultType::Ball, FaultType::OuterRace] {
+            for mils in [7, 14, 21] {
+                for load in 0..4 {
+                    records.push(meta(ft, mils, load, 121_265 + 997 * load as usize));
+                }
+            }
+        }
+        for (dev, outer) in [
+            (Protocol::TimeBlockDev, Protocol::TimeBlock),
+            (Protocol::CrossLoadDev, Protocol::CrossLoad),
+        ] {
+            let d = build_split(dev, &records, &cfg).expect("dev");
+            let o = build_split(outer, &records, &cfg).expect("outer");
+            assert_eq!(d.protocol, dev);
+            assert_eq!(d.classes, o.classes);
+            assert!(!d.train.is_empty() && !d.test.is_empty());
+            d.verify_disjoint().expect("dev sides disjoint");
+            for (w, _) in d.train.iter().chain(&d.test) {
+                assert!(
+                    o.test.iter().all(|(t, _)| !t.overlaps(w)),
+                    "{dev}: {w:?} overlaps an outer test window"
+                );
+            }
+        }
+        let cl = build_split(Protocol::CrossLoadDev, &records, &cfg).expect("dev");
+        assert!(cl.train.iter().all(|(w, _)| records[w.record].load_hp <= 1));
+        assert!(cl.test.iter().all(|(w, _)| records[w.record].load_hp == 2));
+        // Per record, the dev test is the last 30 % of the outer training side.
+        let tb = build_split(Protocol::TimeBlock, &records, &cfg).expect("tb");
+        let tbd = build_split(Protocol::TimeBlockDev, &records, &cfg).expect("tbd");
+        let outer_train = tb.train.iter().filter(|(w, _)| w.record == 1).count();
+        let dev_test = tbd.test.iter().filter(|(w, _)| w.record == 1).count();
+        assert_eq!(dev_test, (outer_train as f64 * 0.3).round() as usize);
+    }
+
     #[test]
     fn verify_catches_leaks_and_bad_bounds() {
         let w = |record, start| WindowRef {
@@ -640,7 +757,7 @@ mod tests {
                 })
                 .collect();
             let lens: Vec<usize> = records.iter().map(|r| r.n_samples).collect();
-            for p in Protocol::ALL {
+            for p in Protocol::EVERY {
                 let split = build_split(p, &records, &cfg).expect("valid config");
                 split.verify_disjoint().expect("no leak");
                 split.verify_bounds(&lens).expect("in bounds");
@@ -680,7 +797,7 @@ mod tests {
             .collect();
         let lens: Vec<usize> = records.iter().map(|r| r.n_samples).collect();
         let cfg = WindowConfig::default();
-        for p in Protocol::ALL {
+        for p in Protocol::EVERY {
             let split = build_split(p, &records, &cfg).expect("split");
             split.verify_disjoint().expect("no leak");
             split.verify_bounds(&lens).expect("in bounds");
@@ -694,6 +811,8 @@ mod tests {
                 Protocol::TimeBlock => assert_eq!((train_records, test_records), (37, 37)),
                 Protocol::CrossLoad => assert_eq!((train_records, test_records), (27, 9)),
                 Protocol::FaultSize => assert_eq!((train_records, test_records), (24, 12)),
+                Protocol::TimeBlockDev => assert_eq!((train_records, test_records), (37, 37)),
+                Protocol::CrossLoadDev => assert_eq!((train_records, test_records), (18, 9)),
             }
             for label in 0..split.classes.len() {
                 assert!(
