@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
 # Choose a core feature constant on the development protocols only.
 #
-#   bash scripts/dev-sweep.sh CONSTANT "V1 V2 ..." [SEEDS]
+#   [SRC=FILE] bash scripts/dev-sweep.sh CONSTANT "V1 V2 ..." [SEEDS]
 #   e.g. bash scripts/dev-sweep.sh BAND_SHARE_FLOOR "1e-4 1e-3 3e-3 1e-2 3e-2" "42 7"
 #
-# For each value: set `pub const CONSTANT: f32 = V;` in core/src/features.rs, build,
+# For each value: set `pub const CONSTANT: f32 = V;` in SRC (default
+# core/src/features.rs; f64 constants too), build,
 # train the DS-STGAT on `time-block-dev` and `cross-load-dev` for each seed, and print
 # one line per run: clean accuracy and the noise curve (10 … −4 dB). The file is put
 # back as it was at the end. The test sides of `time-block` and `cross-load` are never
@@ -15,14 +16,15 @@ const=$1
 values=$2
 seeds=${3:-42}
 data=${DATA:-../shared/data/cwru}
-src=core/src/features.rs
-grep -q "^pub const $const: f32 = " "$src" || { echo "no f32 constant $const in $src" >&2; exit 1; }
+src=${SRC:-core/src/features.rs}
+ty=$(sed -n "s/^pub const $const: \(f32\|f64\) = .*/\1/p" "$src")
+[ -n "$ty" ] || { echo "no f32/f64 constant $const in $src" >&2; exit 1; }
 cp "$src" "$src.sweep-orig"
 trap 'mv "$src.sweep-orig" "$src"' EXIT
 out=out/dev-sweep/$const
 mkdir -p "$out"
 for v in $values; do
-  sed -i "s/^pub const $const: f32 = .*;/pub const $const: f32 = $v;/" "$src"
+  sed -i "s/^pub const $const: $ty = .*;/pub const $const: $ty = $v;/" "$src"
   cargo build --release -q -p pumptwin-trainer --bin pumptwin
   for seed in $seeds; do
     for p in time-block-dev cross-load-dev; do

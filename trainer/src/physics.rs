@@ -55,6 +55,10 @@ use crate::featurize::{feature_config, window_features, MaskCounts, WindowFeatur
 use crate::sim::{simulate, SimulationSpec};
 use crate::twin::closed_loop::{run as run_loop, LoopConfig, LoopInput};
 
+/// Additive white measurement noise (std, g) of the simulated windows the network is
+/// pre-trained on.
+pub const SIM_MEASUREMENT_NOISE: f32 = 0.02;
+
 /// Bands of the node-spectrum shape (the `L_phy` target).
 pub const SPEC_BANDS: usize = 16;
 /// Upper edge of the node-spectrum bands, Hz (the common band limit).
@@ -187,6 +191,7 @@ impl PhysicsEmbedding {
                         spec.params.stiffness_radial = w * w;
                         spec.params.damping_radial = 2.0 * 0.05 * w;
                         spec.impact_amplitude_n = amp;
+                        spec.measurement_noise = SIM_MEASUREMENT_NOISE;
                         let raw = simulate(&spec)?;
                         let rec = preprocess(&raw, &PreprocessConfig::default())?;
                         // s_space: spectral correlation between the nodes.

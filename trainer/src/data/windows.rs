@@ -414,14 +414,28 @@ pub fn time_block(records: &[RecordMeta], cfg: &WindowConfig) -> Result<Split, S
 
 /// `cross-load`: the 9 fault classes; 0–2 HP records train, 3 HP records test.
 pub fn cross_load(records: &[RecordMeta], cfg: &WindowConfig) -> Result<Split, SplitError> {
+    by_load(Protocol::CrossLoad, records, cfg, 2, 3)
+}
+
+/// The 9 fault classes split by motor load: records at `0..=last_train_hp` train,
+/// records at `test_hp` test, others are unused.
+fn by_load(
+    protocol: Protocol,
+    records: &[RecordMeta],
+    cfg: &WindowConfig,
+    last_train_hp: u8,
+    test_hp: u8,
+) -> Result<Split, SplitError> {
     cfg.validate()?;
     let classes = &CLASSES_10[1..];
-    by_record(Protocol::CrossLoad, classes, records, cfg, |r| {
+    by_record(protocol, classes, records, cfg, |r| {
         let label = class_index(classes, r.class_10()?)?;
-        match r.load_hp {
-            0..=2 => Some((Side::Train, label)),
-            3 => Some((Side::Test, label)),
-            _ => None,
+        if r.load_hp <= last_train_hp {
+            Some((Side::Train, label))
+        } else if r.load_hp == test_hp {
+            Some((Side::Test, label))
+        } else {
+            None
         }
     })
 }
@@ -449,16 +463,7 @@ pub fn time_block_dev(records: &[RecordMeta], cfg: &WindowConfig) -> Result<Spli
 
 /// `cross-load-dev`: the 9 fault classes; 0–1 HP records train, 2 HP records test.
 pub fn cross_load_dev(records: &[RecordMeta], cfg: &WindowConfig) -> Result<Split, SplitError> {
-    cfg.validate()?;
-    let classes = &CLASSES_10[1..];
-    by_record(Protocol::CrossLoadDev, classes, records, cfg, |r| {
-        let label = class_index(classes, r.class_10()?)?;
-        match r.load_hp {
-            0 | 1 => Some((Side::Train, label)),
-            2 => Some((Side::Test, label)),
-            _ => None,
-        }
-    })
+    by_load(Protocol::CrossLoadDev, records, cfg, 1, 2)
 }
 
 /// `fault-size`: classes IR, B, OR; 0.007" and 0.021" records train, 0.014" test.
