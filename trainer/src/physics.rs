@@ -57,7 +57,16 @@ use crate::twin::closed_loop::{run as run_loop, LoopConfig, LoopInput};
 
 /// Additive white measurement noise (std, g) of the simulated windows the network is
 /// pre-trained on.
-pub const SIM_MEASUREMENT_NOISE: f32 = 0.02;
+///
+/// The single-mode model's windows are cleaner than any measured one, and a network
+/// pre-trained on clean windows learns evidence that noise erases. Chosen on the
+/// development protocols only (`SRC=trainer/src/physics.rs bash scripts/dev-sweep.sh
+/// SIM_MEASUREMENT_NOISE "0.02 0.1 0.3" "42 7"`, score = mean of clean, 0 dB and −4 dB
+/// accuracy over `time-block-dev`, `cross-load-dev` and two seeds): 0.02 86.6,
+/// **0.1 88.5**, 0.3 87.0. The noise is in the simulated sensors, so it also lowers
+/// the edge prior P read from their spectral correlation (DE–FE 0.94 → 0.74, DE–BA
+/// 0.82 → 0.49, FE–BA 0.82 → 0.53 on CWRU): what the sensors share above their noise.
+pub const SIM_MEASUREMENT_NOISE: f32 = 0.1;
 
 /// Bands of the node-spectrum shape (the `L_phy` target).
 pub const SPEC_BANDS: usize = 16;
