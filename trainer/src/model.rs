@@ -213,7 +213,9 @@ impl Gru {
 /// `tanh(x) = 2·σ(2x) − 1`, exact in real arithmetic. Why not `tanh`: the flex backend
 /// runs `tanh` as one scalar libm `tanhf` (with `expm1f` inside) per element, and in
 /// the GRU's candidate (7c) that was 17 % of a training run's cycles; its sigmoid is
-/// one `expf` per element. Same values to f32 rounding (≤ 2 ulp of 1).
+/// one `expf` per element. In f32 the absolute difference to tanh is ≤ 1.8e-7 (1.5
+/// ulp of 1; checked on a 2·10⁶-point grid over [−12, 12] against f64 tanh); near 0
+/// the relative difference is larger (the −1 cancels).
 fn fast_tanh<const D: usize>(x: Tensor<D>) -> Tensor<D> {
     sigmoid(x * 2.0) * 2.0 - 1.0
 }

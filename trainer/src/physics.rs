@@ -294,11 +294,7 @@ pub fn fit_theta(signal: &[f32], fs_hz: f32, rpm: f32) -> anyhow::Result<Theta> 
 /// if a test window starts earlier, so the Θ fit never sees a test-side sample
 /// (time-block tests the last 30 % of a record, so there the cut never applies).
 fn training_extent(split: &Split) -> BTreeMap<usize, usize> {
-    let mut ext = BTreeMap::new();
-    for (w, _) in &split.train {
-        let e: &mut usize = ext.entry(w.record).or_insert(0);
-        *e = (*e).max(w.end());
-    }
+    let mut ext = split.train_ends();
     for (w, _) in &split.test {
         if let Some(e) = ext.get_mut(&w.record) {
             let first_test = w.start;

@@ -313,6 +313,16 @@ impl Split {
         Ok(())
     }
 
+    /// Per record with training windows, the end of its last training window.
+    pub fn train_ends(&self) -> BTreeMap<usize, usize> {
+        let mut ends = BTreeMap::new();
+        for (w, _) in &self.train {
+            let e: &mut usize = ends.entry(w.record).or_insert(0);
+            *e = (*e).max(w.end());
+        }
+        ends
+    }
+
     /// The windows of one side.
     pub fn side(&self, side: Side) -> &[(WindowRef, usize)] {
         match side {
@@ -444,17 +454,14 @@ fn by_load(
 /// `time-block` training window, so train and test both come from `time-block`'s
 /// training side (with the same gap between them).
 pub fn time_block_dev(records: &[RecordMeta], cfg: &WindowConfig) -> Result<Split, SplitError> {
-    let outer = time_block(records, cfg)?;
-    let mut train_end = vec![0usize; records.len()];
-    for (w, _) in &outer.train {
-        if let Some(e) = train_end.get_mut(w.record) {
-            *e = (*e).max(w.end());
-        }
-    }
+    let train_end = time_block(records, cfg)?.train_ends();
     let cut: Vec<RecordMeta> = records
         .iter()
-        .zip(&train_end)
-        .map(|(r, &n)| RecordMeta { n_samples: n, ..*r })
+        .enumerate()
+        .map(|(i, r)| RecordMeta {
+            n_samples: train_end.get(&i).copied().unwrap_or(0),
+            ..*r
+        })
         .collect();
     let mut split = time_block(&cut, cfg)?;
     split.protocol = Protocol::TimeBlockDev;
