@@ -13,7 +13,7 @@ use std::io::Write;
 use std::path::PathBuf;
 
 use pumptwin_trainer::data::windows::Protocol;
-use pumptwin_trainer::dataset::{FEATURES, N_INDICATORS, N_NODES, STEPS};
+use pumptwin_trainer::dataset::{FEATURES, NODES, N_INDICATORS, N_NODES, STEPS};
 use pumptwin_trainer::training::{class_weights, load_protocol, TrainConfig};
 
 fn write_f32(path: PathBuf, v: &[f32]) -> anyhow::Result<()> {
@@ -31,7 +31,7 @@ fn main() -> anyhow::Result<()> {
     // The same graph construction as a `--ablation no-physics` run (uniform prior);
     // the timing does not depend on the prior's values.
     let cfg = TrainConfig::new();
-    let (_, pd) = load_protocol(&data, Protocol::TimeBlock, None, cfg.graph_config())?;
+    let (_, pd) = load_protocol(&data, Protocol::TimeBlock, None, cfg.graph_config(), NODES)?;
     std::fs::create_dir_all(&out)?;
     let ds = &pd.train;
     write_f32(out.join("x.f32"), &ds.x)?;

@@ -1,5 +1,7 @@
 //! `pumptwin compare`: every model of the comparison (the DS-STGAT, its three
-//! ablations and the four baselines) on every protocol, in one table.
+//! ablations and the four baselines) on every protocol, in one table; below it, apart,
+//! the DS-STGAT with the paper's derived temperature and pressure nodes (section 6.2,
+//! [`crate::derived`]), which sees five nodes computed from three sensors.
 //!
 //! Each (protocol, model) run lives in `RUNS/<protocol>/<model>/` as `pumptwin train`
 //! writes it; a run whose `metrics.json` exists is reused, a missing one is trained
@@ -14,6 +16,7 @@ use plotters::prelude::*;
 use serde::Serialize;
 
 use crate::data::windows::Protocol;
+use crate::dataset::NodeSet;
 use crate::plot::{draw_legend, register_font};
 use crate::training::{run_train, value_name, Ablation, Arch, TrainArgs, METRICS_FILE};
 
@@ -55,13 +58,23 @@ pub const MODELS: [(Arch, Ablation); 8] = [
     (Arch::Wdcnn, Ablation::None),
 ];
 
-/// The run name of a model (`dsstgat`, `dsstgat-no-coadapt`, `wdcnn`, …).
-pub fn model_name(arch: Arch, ablation: Ablation) -> String {
-    if ablation == Ablation::None {
+/// The models reported apart from the table (different inputs): the DS-STGAT with
+/// the derived temperature and pressure nodes.
+pub const SEPARATE: [(Arch, Ablation, NodeSet); 1] =
+    [(Arch::DsStgat, Ablation::None, NodeSet::Derived)];
+
+/// The run name of a model (`dsstgat`, `dsstgat-no-coadapt`, `wdcnn`, …), with
+/// `+derived-nodes` for the derived-node layout (as `TrainConfig::report_name`).
+pub fn model_name(arch: Arch, ablation: Ablation, nodes: NodeSet) -> String {
+    let mut name = if ablation == Ablation::None {
         value_name(&arch)
     } else {
         format!("{}-{}", value_name(&arch), value_name(&ablation))
+    };
+    if nodes == NodeSet::Derived {
+        name.push_str("+derived-nodes");
     }
+    name
 }
 
 /// One row of the table.
@@ -94,8 +107,10 @@ pub struct Row {
 pub struct Comparison {
     /// Protocol names, in column order.
     pub protocols: Vec<String>,
-    /// One row per model.
+    /// One row per model ([`MODELS`]).
     pub rows: Vec<Row>,
+    /// The models reported apart ([`SEPARATE`]), same columns.
+    pub separate: Vec<Row>,
 }
 
 fn read_metrics(dir: &Path) -> Option<serde_json::Value> {
@@ -112,80 +127,22 @@ pub fn run_compare(args: &CompareArgs) -> Result<()> {
     };
     let mut rows = Vec::new();
     for (arch, ablation) in MODELS {
-        let name = model_name(arch, ablation);
-        let mut metrics = Vec::new();
-        for &p in &protocols {
-            let dir = args.runs.join(p.name()).join(&name);
-            if read_metrics(&dir).is_none() && !args.no_train {
-                eprintln!("== training {name} on {}", p.name());
-                run_train(&TrainArgs {
-                    data: args.data.clone(),
-                    protocol: p,
-                    out: dir.clone(),
-                    config: None,
-                    epochs: args.epochs,
-                    seed: Some(args.seed),
-                    no_monitor: true,
-                    arch,
-                    ablation,
-                    theta_cache: args.runs.join("cache").join("theta"),
-                    no_figures: false,
-                })
-                .with_context(|| format!("training {name} on {}", p.name()))?;
-            }
-            metrics.push(read_metrics(&dir));
-        }
-        let f = |m: &Option<serde_json::Value>, key: &str| {
-            m.as_ref()
-                .and_then(|v| v.get(key))
-                .and_then(serde_json::Value::as_f64)
-        };
-        let tb = protocols
-            .iter()
-            .position(|p| *p == Protocol::TimeBlock)
-            .and_then(|k| metrics[k].clone());
-        let noise = tb
-            .as_ref()
-            .and_then(|v| v.get("noise"))
-            .and_then(serde_json::Value::as_array)
-            .map(|a| {
-                a.iter()
-                    .filter_map(|p| {
-                        Some((
-                            p.get("snr_db")?.as_f64()? as f32,
-                            p.get("accuracy")?.as_f64()?,
-                        ))
-                    })
-                    .collect()
-            })
-            .unwrap_or_default();
-        rows.push(Row {
-            model: name,
-            accuracy: metrics.iter().map(|m| f(m, "accuracy")).collect(),
-            fault_only_accuracy: metrics
-                .iter()
-                .map(|m| f(m, "fault_only_accuracy"))
-                .collect(),
-            f1_weighted: metrics.iter().map(|m| f(m, "f1_weighted")).collect(),
-            noise,
-            spectral_consistency: f(&tb, "spectral_consistency"),
-            response_mse: f(&tb, "response_mse"),
-            parameter_drift: f(&tb, "parameter_drift"),
-            train_seconds: f(&tb, "train_seconds"),
-            windows: metrics
-                .iter()
-                .map(|m| {
-                    Some((
-                        f(m, "n_train_windows")? as usize,
-                        f(m, "n_test_windows")? as usize,
-                    ))
-                })
-                .collect(),
-        });
+        rows.push(model_row(
+            args,
+            &protocols,
+            arch,
+            ablation,
+            NodeSet::Measured,
+        )?);
+    }
+    let mut separate = Vec::new();
+    for (arch, ablation, nodes) in SEPARATE {
+        separate.push(model_row(args, &protocols, arch, ablation, nodes)?);
     }
     let cmp = Comparison {
         protocols: protocols.iter().map(|p| p.name().to_string()).collect(),
         rows,
+        separate,
     };
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
@@ -202,6 +159,88 @@ pub fn run_compare(args: &CompareArgs) -> Result<()> {
     Ok(())
 }
 
+/// The row of one model: its runs read, or trained where missing (unless
+/// `--no-train`).
+fn model_row(
+    args: &CompareArgs,
+    protocols: &[Protocol],
+    arch: Arch,
+    ablation: Ablation,
+    nodes: NodeSet,
+) -> Result<Row> {
+    let name = model_name(arch, ablation, nodes);
+    let mut metrics = Vec::new();
+    for &p in protocols {
+        let dir = args.runs.join(p.name()).join(&name);
+        if read_metrics(&dir).is_none() && !args.no_train {
+            eprintln!("== training {name} on {}", p.name());
+            run_train(&TrainArgs {
+                data: args.data.clone(),
+                protocol: p,
+                out: dir.clone(),
+                config: None,
+                epochs: args.epochs,
+                seed: Some(args.seed),
+                no_monitor: true,
+                arch,
+                ablation,
+                nodes,
+                theta_cache: args.runs.join("cache").join("theta"),
+                no_figures: false,
+            })
+            .with_context(|| format!("training {name} on {}", p.name()))?;
+        }
+        metrics.push(read_metrics(&dir));
+    }
+    let f = |m: &Option<serde_json::Value>, key: &str| {
+        m.as_ref()
+            .and_then(|v| v.get(key))
+            .and_then(serde_json::Value::as_f64)
+    };
+    let tb = protocols
+        .iter()
+        .position(|p| *p == Protocol::TimeBlock)
+        .and_then(|k| metrics[k].clone());
+    let noise = tb
+        .as_ref()
+        .and_then(|v| v.get("noise"))
+        .and_then(serde_json::Value::as_array)
+        .map(|a| {
+            a.iter()
+                .filter_map(|p| {
+                    Some((
+                        p.get("snr_db")?.as_f64()? as f32,
+                        p.get("accuracy")?.as_f64()?,
+                    ))
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    Ok(Row {
+        model: name,
+        accuracy: metrics.iter().map(|m| f(m, "accuracy")).collect(),
+        fault_only_accuracy: metrics
+            .iter()
+            .map(|m| f(m, "fault_only_accuracy"))
+            .collect(),
+        f1_weighted: metrics.iter().map(|m| f(m, "f1_weighted")).collect(),
+        noise,
+        spectral_consistency: f(&tb, "spectral_consistency"),
+        response_mse: f(&tb, "response_mse"),
+        parameter_drift: f(&tb, "parameter_drift"),
+        train_seconds: f(&tb, "train_seconds"),
+        windows: metrics
+            .iter()
+            .map(|m| {
+                Some((
+                    f(m, "n_train_windows")? as usize,
+                    f(m, "n_test_windows")? as usize,
+                ))
+            })
+            .collect(),
+    })
+}
+
 fn pct(v: Option<f64>) -> String {
     v.map_or_else(|| "–".into(), |a| format!("{:.2}", 100.0 * a))
 }
@@ -210,21 +249,47 @@ fn num(v: Option<f64>, digits: usize) -> String {
     v.map_or_else(|| "–".into(), |a| format!("{a:.digits$}"))
 }
 
-/// The table as markdown.
+/// The table as markdown, with the separately reported models in a second table.
 pub fn markdown(cmp: &Comparison) -> String {
+    let mut s = table(&cmp.protocols, &cmp.rows);
+    s.push_str("\nWindows (train / test) per protocol: ");
+    let w: Vec<String> = cmp
+        .protocols
+        .iter()
+        .enumerate()
+        .map(|(k, p)| {
+            let n = cmp.rows.iter().find_map(|r| r.windows[k]);
+            n.map_or_else(|| format!("{p} –"), |(a, b)| format!("{p} {a} / {b}"))
+        })
+        .collect();
+    s.push_str(&w.join(", "));
+    s.push('\n');
+    if !cmp.separate.is_empty() {
+        s.push_str(
+            "\nReported separately — the DS-STGAT with the paper's derived temperature and \
+             pressure nodes (section 6.2, `--nodes derived`): five nodes, the two extra ones \
+             computed per window from the DE signal (no sensor behind them; float only):\n\n",
+        );
+        s.push_str(&table(&cmp.protocols, &cmp.separate));
+    }
+    s
+}
+
+/// One markdown table of `rows`.
+fn table(protocols: &[String], rows: &[Row]) -> String {
     let mut s = String::new();
     s.push_str("| model |");
-    for p in &cmp.protocols {
+    for p in protocols {
         s.push_str(&format!(" {p} acc % | {p} fault-only % |"));
     }
     s.push_str(" TB F1w | TB 0 dB % | TB −4 dB % | spectral consistency | response MSE dB² | parameter drift | train s |\n|---|");
-    for _ in &cmp.protocols {
+    for _ in protocols {
         s.push_str("---|---|");
     }
     s.push_str("---|---|---|---|---|---|---|\n");
-    for r in &cmp.rows {
+    for r in rows {
         s.push_str(&format!("| {} |", r.model));
-        for k in 0..cmp.protocols.len() {
+        for k in 0..protocols.len() {
             s.push_str(&format!(
                 " {} | {} |",
                 pct(r.accuracy[k]),
@@ -237,8 +302,7 @@ pub fn markdown(cmp: &Comparison) -> String {
                 .find(|(s, _)| (*s - db).abs() < 1e-3)
                 .map(|p| p.1)
         };
-        let tb_f1 = cmp
-            .protocols
+        let tb_f1 = protocols
             .iter()
             .position(|p| p == "time-block")
             .and_then(|k| r.f1_weighted[k]);
@@ -253,18 +317,6 @@ pub fn markdown(cmp: &Comparison) -> String {
             num(r.train_seconds, 0)
         ));
     }
-    s.push_str("\nWindows (train / test) per protocol: ");
-    let w: Vec<String> = cmp
-        .protocols
-        .iter()
-        .enumerate()
-        .map(|(k, p)| {
-            let n = cmp.rows.iter().find_map(|r| r.windows[k]);
-            n.map_or_else(|| format!("{p} –"), |(a, b)| format!("{p} {a} / {b}"))
-        })
-        .collect();
-    s.push_str(&w.join(", "));
-    s.push('\n');
     s
 }
 

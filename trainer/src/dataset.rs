@@ -54,10 +54,45 @@ use crate::featurize::{
 };
 use crate::physics::{spectrum_shape, Theta, N_THETA, SPEC_BANDS};
 
-/// Node channels, in node order.
+/// Node channels, in node order: the measured sensors (the product's layout, the
+/// one the int8 model file and the edge run).
 pub const NODES: [&str; N_NODES] = ["DE", "FE", "BA"];
-/// Number of graph nodes.
+/// Number of graph nodes of the measured layout.
 pub const N_NODES: usize = 3;
+/// The measured nodes plus the paper's derived temperature and pressure nodes
+/// (section 6.2, [`crate::derived`]): the `--nodes derived` option.
+pub const DERIVED_NODES: [&str; N_DERIVED_NODES] =
+    ["DE", "FE", "BA", crate::derived::TEMP, crate::derived::PRES];
+/// Number of graph nodes with the derived nodes.
+pub const N_DERIVED_NODES: usize = 5;
+
+/// Which nodes a model sees.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum NodeSet {
+    /// The measured DE, FE, BA channels ([`NODES`]).
+    Measured,
+    /// The measured channels plus derived temperature and pressure
+    /// ([`DERIVED_NODES`]); float models only, reported separately.
+    Derived,
+}
+
+impl NodeSet {
+    /// Number of nodes.
+    pub fn count(self) -> usize {
+        match self {
+            Self::Measured => N_NODES,
+            Self::Derived => N_DERIVED_NODES,
+        }
+    }
+
+    /// Node names, in order.
+    pub fn names(self) -> &'static [&'static str] {
+        match self {
+            Self::Measured => &NODES,
+            Self::Derived => &DERIVED_NODES,
+        }
+    }
+}
 /// Graph steps per window (`T`).
 pub const STEPS: usize = SEGMENTS;
 /// Features per node and step (`F`).
@@ -199,16 +234,19 @@ pub struct NoiseSpec {
 /// Raw node features of `windows` (in their order), computed by the core on the
 /// corpus' signals (noisy ones if `noise` is given). Masked nodes are counted in
 /// `counts`.
-pub fn featurize_windows(
+pub fn featurize_windows<const N: usize>(
     corpus: &Corpus,
     windows: &[(WindowRef, usize)],
+    nodes: &[&'static str; N],
     noise: Option<NoiseSpec>,
     counts: &mut MaskCounts,
-) -> (Vec<WindowFeatures<N_NODES>>, Vec<f32>) {
+) -> (Vec<WindowFeatures<N>>, Vec<f32>) {
     let orders = BearingGeometry::CWRU_6205_DE.orders();
     let records: BTreeSet<usize> = windows.iter().map(|(w, _)| w.record).collect();
-    let mut out: Vec<Option<WindowFeatures<N_NODES>>> = vec![None; windows.len()];
-    let mut raw = vec![0.0f32; windows.len() * Dataset::RAW_PER_WINDOW];
+    let mut out: Vec<Option<WindowFeatures<N>>> = vec![None; windows.len()];
+    let rw = N * WINDOW;
+    let mut raw = vec![0.0f32; windows.len() * rw];
+    let derive = nodes.iter().any(|n| crate::derived::is_derived(n));
     for record in records {
         let r = &corpus.records[record];
         let cfg = feature_config(r.rec.fs_hz, r.shaft_hz, orders);
@@ -217,27 +255,24 @@ pub fn featurize_windows(
             .collect();
         let copy_raw = |rec: &Recording, starts: &[usize], raw: &mut [f32]| {
             for (&k, &start) in positions.iter().zip(starts) {
-                let rw = Dataset::RAW_PER_WINDOW;
-                copy_window_samples(rec, start, &mut raw[k * rw..(k + 1) * rw]);
+                copy_window_samples(rec, nodes, start, &mut raw[k * rw..(k + 1) * rw]);
             }
         };
-        let features = match noise {
-            None => {
-                let starts: Vec<usize> = positions.iter().map(|&k| windows[k].0.start).collect();
-                copy_raw(&r.rec, &starts, &mut raw);
-                window_features(&r.rec, &NODES, &cfg, &starts, counts)
+        let features = if noise.is_none() && !derive {
+            let starts: Vec<usize> = positions.iter().map(|&k| windows[k].0.start).collect();
+            copy_raw(&r.rec, &starts, &mut raw);
+            window_features(&r.rec, nodes, &cfg, &starts, counts)
+        } else {
+            // The windows (noisy, with derived nodes, as asked) laid end to end in a
+            // scratch recording.
+            let scratch = window_recording(&r.rec, windows, &positions, noise, derive);
+            let starts: Vec<usize> = (0..positions.len()).map(|k| k * WINDOW).collect();
+            copy_raw(&scratch, &starts, &mut raw);
+            let mut f = window_features(&scratch, nodes, &cfg, &starts, counts);
+            for (w, &k) in f.iter_mut().zip(&positions) {
+                w.start = windows[k].0.start;
             }
-            Some(spec) => {
-                // The noisy windows laid end to end in a scratch recording.
-                let noisy = noisy_windows(&r.rec, windows, &positions, spec);
-                let starts: Vec<usize> = (0..positions.len()).map(|k| k * WINDOW).collect();
-                copy_raw(&noisy, &starts, &mut raw);
-                let mut f = window_features(&noisy, &NODES, &cfg, &starts, counts);
-                for (w, &k) in f.iter_mut().zip(&positions) {
-                    w.start = windows[k].0.start;
-                }
-                f
-            }
+            f
         };
         for (w, &k) in features.into_iter().zip(&positions) {
             out[k] = Some(w);
@@ -250,10 +285,11 @@ pub fn featurize_windows(
     (features, raw)
 }
 
-/// The samples of each node's channel in the window starting at `start`, node after
-/// node, into `out` (`[N, WINDOW]`); a missing channel's part is left as it is.
-pub fn copy_window_samples(rec: &Recording, start: usize, out: &mut [f32]) {
-    for (i, name) in NODES.iter().enumerate() {
+/// The samples of each node's channel (`nodes`, in order) in the window starting at
+/// `start`, node after node, into `out` (`[N, WINDOW]`); a missing channel's part is
+/// left as it is.
+pub fn copy_window_samples(rec: &Recording, nodes: &[&str], start: usize, out: &mut [f32]) {
+    for (i, name) in nodes.iter().enumerate() {
         let src = rec
             .channel(name)
             .and_then(|c| c.samples.get(start..start + WINDOW));
@@ -261,6 +297,57 @@ pub fn copy_window_samples(rec: &Recording, start: usize, out: &mut [f32]) {
             dst.copy_from_slice(x);
         }
     }
+}
+
+/// A recording holding the windows at `positions` end to end, each with noise at
+/// `noise.snr_db` relative to its own power per channel (if any), and with the derived
+/// nodes computed from each window's own (noisy) samples if `derive`.
+fn window_recording(
+    rec: &Recording,
+    windows: &[(WindowRef, usize)],
+    positions: &[usize],
+    noise: Option<NoiseSpec>,
+    derive: bool,
+) -> Recording {
+    match noise {
+        Some(spec) => {
+            let mut out = noisy_windows(rec, windows, positions, spec);
+            if derive {
+                crate::derived::append_channels(&mut out, WINDOW);
+            }
+            out
+        }
+        None => {
+            let starts: Vec<usize> = positions.iter().map(|&k| windows[k].0.start).collect();
+            windows_end_to_end(rec, &starts, derive)
+        }
+    }
+}
+
+/// A recording holding the windows of `rec` starting at `starts` end to end (window
+/// `k` at `k·WINDOW`), with the derived nodes ([`crate::derived`]) computed from each
+/// window's own samples if `derive`.
+pub fn windows_end_to_end(rec: &Recording, starts: &[usize], derive: bool) -> Recording {
+    let mut out = Recording {
+        name: rec.name.clone(),
+        fs_hz: rec.fs_hz,
+        rpm: rec.rpm,
+        channels: rec
+            .channels
+            .iter()
+            .map(|ch| Channel {
+                name: ch.name.clone(),
+                samples: starts
+                    .iter()
+                    .flat_map(|&s| ch.samples[s..s + WINDOW].iter().copied())
+                    .collect(),
+            })
+            .collect(),
+    };
+    if derive {
+        crate::derived::append_channels(&mut out, WINDOW);
+    }
+    out
 }
 
 /// A recording holding the windows at `positions` end to end, each with noise at
@@ -322,11 +409,11 @@ fn noisy_windows(
 /// ```
 ///
 /// Computed from the raw (unnormalized) features and the core's adjacency.
-pub fn indicator_targets(
-    w: &WindowFeatures<N_NODES>,
-    adj: &[Adjacency<N_NODES>; STEPS],
+pub fn indicator_targets<const N: usize>(
+    w: &WindowFeatures<N>,
+    adj: &[Adjacency<N>; STEPS],
 ) -> [f32; N_INDICATORS] {
-    let present: Vec<usize> = (0..N_NODES).filter(|&i| w.mask.0[i]).collect();
+    let present: Vec<usize> = (0..N).filter(|&i| w.mask.0[i]).collect();
     if present.is_empty() {
         return [0.0; N_INDICATORS];
     }
@@ -418,8 +505,10 @@ impl IndicatorNorm {
 }
 
 /// One side of a split, as flat row-major arrays (see the module's `# Shapes`).
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Dataset {
+    /// Nodes per window (`N`).
+    pub nodes: usize,
     /// `[W, T, N, F]` normalized node features.
     pub x: Vec<f32>,
     /// `[W, T, N, N]` normalized adjacency.
@@ -442,26 +531,65 @@ pub struct Dataset {
     pub theta: Vec<f32>,
 }
 
+impl Default for Dataset {
+    /// An empty side of the measured layout ([`N_NODES`] nodes).
+    fn default() -> Self {
+        Self::new(N_NODES)
+    }
+}
+
 impl Dataset {
+    /// An empty side with `nodes` nodes per window.
+    pub fn new(nodes: usize) -> Self {
+        Self {
+            nodes,
+            x: Vec::new(),
+            adj: Vec::new(),
+            mask: Vec::new(),
+            indicators: Vec::new(),
+            label: Vec::new(),
+            record: Vec::new(),
+            raw: Vec::new(),
+            spectra: Vec::new(),
+            theta: Vec::new(),
+        }
+    }
+
     /// Values of `x` per window.
-    pub const X_PER_WINDOW: usize = STEPS * N_NODES * FEATURES;
+    pub fn x_per_window(&self) -> usize {
+        STEPS * self.nodes * FEATURES
+    }
+
     /// Values of `adj` per window.
-    pub const ADJ_PER_WINDOW: usize = STEPS * N_NODES * N_NODES;
+    pub fn adj_per_window(&self) -> usize {
+        STEPS * self.nodes * self.nodes
+    }
+
     /// Values of `raw` per window.
-    pub const RAW_PER_WINDOW: usize = N_NODES * WINDOW;
+    pub fn raw_per_window(&self) -> usize {
+        self.nodes * WINDOW
+    }
+
     /// Values of `spectra` per window.
-    pub const SPEC_PER_WINDOW: usize = N_NODES * SPEC_BANDS;
+    pub fn spec_per_window(&self) -> usize {
+        self.nodes * SPEC_BANDS
+    }
+
+    /// The node mask of window `k` (`N` entries).
+    pub fn window_mask(&self, k: usize) -> &[bool] {
+        &self.mask[k * self.nodes..(k + 1) * self.nodes]
+    }
 
     /// Whether the raw samples (and spectra) are present for every window.
     pub fn has_signals(&self) -> bool {
-        self.raw.len() == self.len() * Self::RAW_PER_WINDOW
-            && self.spectra.len() == self.len() * Self::SPEC_PER_WINDOW
+        self.raw.len() == self.len() * self.raw_per_window()
+            && self.spectra.len() == self.len() * self.spec_per_window()
     }
 
     /// Append raw samples `[N, WINDOW]` of the last pushed window and its spectra
     /// (computed here; zero for absent nodes).
-    pub fn push_signals(&mut self, raw: &[f32], mask: &[bool; N_NODES], fs_hz: f32) {
-        debug_assert_eq!(raw.len(), Self::RAW_PER_WINDOW);
+    pub fn push_signals(&mut self, raw: &[f32], mask: &[bool], fs_hz: f32) {
+        debug_assert_eq!(raw.len(), self.raw_per_window());
         self.raw.extend_from_slice(raw);
         for (i, present) in mask.iter().enumerate() {
             if *present {
@@ -501,15 +629,16 @@ impl Dataset {
     }
 
     /// Append a window.
-    pub fn push(
+    pub fn push<const N: usize>(
         &mut self,
-        x: &[[[f32; FEATURES]; N_NODES]; STEPS],
-        adj: &[Adjacency<N_NODES>; STEPS],
-        mask: &[bool; N_NODES],
+        x: &[[[f32; FEATURES]; N]; STEPS],
+        adj: &[Adjacency<N>; STEPS],
+        mask: &[bool; N],
         indicators: &[f32; N_INDICATORS],
         label: usize,
         record: usize,
     ) {
+        debug_assert_eq!(N, self.nodes);
         self.x.extend(x.iter().flatten().flatten());
         self.adj
             .extend(adj.iter().flat_map(|a| a.0.iter().flatten()));
@@ -539,19 +668,18 @@ impl Dataset {
 
     /// The windows where `keep` is true, in order.
     pub fn select(&self, keep: &[bool]) -> Self {
-        let mut out = Self::default();
+        let mut out = Self::new(self.nodes);
         for (k, _) in keep.iter().enumerate().filter(|(_, &m)| m) {
-            let (xw, aw) = (Self::X_PER_WINDOW, Self::ADJ_PER_WINDOW);
+            let (xw, aw) = (self.x_per_window(), self.adj_per_window());
             out.x.extend_from_slice(&self.x[k * xw..(k + 1) * xw]);
             out.adj.extend_from_slice(&self.adj[k * aw..(k + 1) * aw]);
-            out.mask
-                .extend_from_slice(&self.mask[k * N_NODES..(k + 1) * N_NODES]);
+            out.mask.extend_from_slice(self.window_mask(k));
             out.indicators
                 .extend_from_slice(&self.indicators[k * N_INDICATORS..(k + 1) * N_INDICATORS]);
             out.label.push(self.label[k]);
             out.record.push(self.record[k]);
             if self.has_signals() {
-                let (rw, sw) = (Self::RAW_PER_WINDOW, Self::SPEC_PER_WINDOW);
+                let (rw, sw) = (self.raw_per_window(), self.spec_per_window());
                 out.raw.extend_from_slice(&self.raw[k * rw..(k + 1) * rw]);
                 out.spectra
                     .extend_from_slice(&self.spectra[k * sw..(k + 1) * sw]);
@@ -572,15 +700,15 @@ impl Dataset {
 
 /// Normalize raw window features with `norm`, build the core's graphs and the
 /// indicator targets, in the order of `windows`.
-pub fn assemble(
-    raw: &[WindowFeatures<N_NODES>],
+pub fn assemble<const N: usize>(
+    raw: &[WindowFeatures<N>],
     signals: &[f32],
     windows: &[(WindowRef, usize)],
     norm: &FeatureNorm,
     indicator_norm: Option<&IndicatorNorm>,
-    graph: &GraphConfig<N_NODES>,
+    graph: &GraphConfig<N>,
 ) -> Result<(Dataset, Vec<[f32; N_INDICATORS]>), DatasetError> {
-    let mut ds = Dataset::default();
+    let mut ds = Dataset::new(N);
     let mut unscaled = Vec::with_capacity(raw.len());
     for (k, (w, (wref, label))) in raw.iter().zip(windows).enumerate() {
         let (x, a) = window_graphs(w, norm, graph).map_err(|source| DatasetError::Graph {
@@ -592,7 +720,7 @@ pub fn assemble(
         unscaled.push(ind);
         let scaled = indicator_norm.map_or(ind, |n| n.apply(&ind));
         ds.push(&x, &a, &w.mask.0, &scaled, *label, wref.record);
-        let rw = Dataset::RAW_PER_WINDOW;
+        let rw = ds.raw_per_window();
         if let Some(sig) = signals.get(k * rw..(k + 1) * rw) {
             ds.push_signals(sig, &w.mask.0, MODEL_FS_HZ);
         }
@@ -600,11 +728,14 @@ pub fn assemble(
     Ok((ds, unscaled))
 }
 
-/// Everything training and evaluation need of one protocol.
+/// Everything training and evaluation need of one protocol, for `N` nodes
+/// ([`NODES`] by default, [`DERIVED_NODES`] with the derived-node option).
 #[derive(Debug, Clone)]
-pub struct ProtocolData {
+pub struct ProtocolData<const N: usize = N_NODES> {
     /// The protocol.
     pub protocol: Protocol,
+    /// Node channel names, in node order.
+    pub nodes: [&'static str; N],
     /// The split (window references and labels).
     pub split: Split,
     /// Feature normalization fitted on the training windows.
@@ -612,7 +743,7 @@ pub struct ProtocolData {
     /// Indicator normalization fitted on the training windows.
     pub indicator_norm: IndicatorNorm,
     /// The graph construction used.
-    pub graph: GraphConfig<N_NODES>,
+    pub graph: GraphConfig<N>,
     /// Training side.
     pub train: Dataset,
     /// Test side.
@@ -623,16 +754,17 @@ pub struct ProtocolData {
     pub featurize_seconds: f64,
 }
 
-impl ProtocolData {
-    /// Build both sides of `protocol` from a loaded corpus. The normalizations are
-    /// fitted on the training side, unless `norms` gives them (e.g. the ones saved with
-    /// a trained model).
+impl<const N: usize> ProtocolData<N> {
+    /// Build both sides of `protocol` from a loaded corpus for the nodes `nodes`. The
+    /// normalizations are fitted on the training side, unless `norms` gives them (e.g.
+    /// the ones saved with a trained model).
     pub fn build(
         corpus: &Corpus,
         protocol: Protocol,
         windows: &WindowConfig,
         norms: Option<(FeatureNorm, IndicatorNorm)>,
-        graph: GraphConfig<N_NODES>,
+        graph: GraphConfig<N>,
+        nodes: [&'static str; N],
     ) -> Result<Self, DatasetError> {
         let split = corpus.split(protocol, windows)?;
         if split.train.is_empty() {
@@ -641,8 +773,9 @@ impl ProtocolData {
         let t0 = Instant::now();
         let mut mask_counts = MaskCounts::default();
         let (raw_train, sig_train) =
-            featurize_windows(corpus, &split.train, None, &mut mask_counts);
-        let (raw_test, sig_test) = featurize_windows(corpus, &split.test, None, &mut mask_counts);
+            featurize_windows(corpus, &split.train, &nodes, None, &mut mask_counts);
+        let (raw_test, sig_test) =
+            featurize_windows(corpus, &split.test, &nodes, None, &mut mask_counts);
         // Fitted on the training side only; the test side reuses it.
         let norm = norms.map_or_else(|| fit_norm(&raw_train), |(n, _)| n);
         let (mut train, train_ind) =
@@ -662,6 +795,7 @@ impl ProtocolData {
         )?;
         Ok(Self {
             protocol,
+            nodes,
             split,
             norm,
             indicator_norm,
@@ -677,7 +811,13 @@ impl ProtocolData {
     /// the core, with the *training* normalizations).
     pub fn noisy_test(&self, corpus: &Corpus, noise: NoiseSpec) -> Result<Dataset, DatasetError> {
         let mut counts = MaskCounts::default();
-        let (raw, signals) = featurize_windows(corpus, &self.split.test, Some(noise), &mut counts);
+        let (raw, signals) = featurize_windows(
+            corpus,
+            &self.split.test,
+            &self.nodes,
+            Some(noise),
+            &mut counts,
+        );
         let (mut ds, _) = assemble(
             &raw,
             &signals,

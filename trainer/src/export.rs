@@ -212,8 +212,9 @@ pub struct CoreWindow {
 impl CoreWindow {
     /// Window `k` of `ds`.
     pub fn of(ds: &Dataset, k: usize) -> Self {
-        let x0 = k * Dataset::X_PER_WINDOW;
-        let a0 = k * Dataset::ADJ_PER_WINDOW;
+        debug_assert_eq!(ds.nodes, N_NODES);
+        let x0 = k * ds.x_per_window();
+        let a0 = k * ds.adj_per_window();
         let x = std::array::from_fn(|t| {
             std::array::from_fn(|i| {
                 std::array::from_fn(|f| ds.x[x0 + (t * N_NODES + i) * FEATURES + f])
@@ -423,8 +424,15 @@ pub fn run_export(args: &ExportArgs) -> Result<()> {
             cfg.arch
         );
     }
+    if cfg.node_set()? != crate::dataset::NodeSet::Measured {
+        anyhow::bail!(
+            "{} uses the derived temperature/pressure nodes: that option is float only \
+             (the core's int8 network and the edge run the measured DE, FE, BA nodes)",
+            args.model.display()
+        );
+    }
     let (corpus, data) =
-        crate::training::load_protocol(&args.data, protocol, norms, cfg.graph_config())?;
+        crate::training::load_protocol(&args.data, protocol, norms, cfg.graph_config(), NODES)?;
     ensure!(
         cfg.classes.is_empty() || cfg.classes == data.classes(),
         "the model's classes {:?} differ from the data's {:?}",
@@ -582,13 +590,13 @@ fn export_with<const H: usize>(
         windows: picks
             .iter()
             .map(|&k| {
-                let x0 = k * Dataset::X_PER_WINDOW;
-                let a0 = k * Dataset::ADJ_PER_WINDOW;
+                let (xw, aw) = (test.x_per_window(), test.adj_per_window());
+                let (x0, a0) = (k * xw, k * aw);
                 GoldenWindow {
                     label: test.label[k] as usize,
-                    x: test.x[x0..x0 + Dataset::X_PER_WINDOW].to_vec(),
-                    adj: test.adj[a0..a0 + Dataset::ADJ_PER_WINDOW].to_vec(),
-                    mask: test.mask[k * N_NODES..(k + 1) * N_NODES].to_vec(),
+                    x: test.x[x0..x0 + xw].to_vec(),
+                    adj: test.adj[a0..a0 + aw].to_vec(),
+                    mask: test.window_mask(k).to_vec(),
                     float_logits: burn[k].clone(),
                     int8_logits: int8[k].logits[..classes].to_vec(),
                     int8_class: int8[k].class,

@@ -24,7 +24,7 @@ use plotters::prelude::*;
 use pumptwin_core::features::{FEATURE_DIM, FEATURE_NAMES};
 use pumptwin_core::rng::Xoshiro128pp;
 
-use crate::dataset::{ProtocolData, N_NODES, STEPS};
+use crate::dataset::{ProtocolData, STEPS};
 use crate::metrics::MetricsReport;
 use crate::plot::{draw_legend, line_plot, register_font, PlotSpec, Series};
 use crate::training::{EpochStats, Inference};
@@ -274,14 +274,14 @@ pub fn class_scatter(
 
 /// Pearson correlation matrix of the node features over the training windows
 /// (normalized features of present nodes, every step).
-pub fn feature_correlation(data: &ProtocolData) -> Vec<Vec<f64>> {
+pub fn feature_correlation<const N: usize>(data: &ProtocolData<N>) -> Vec<Vec<f64>> {
     let ds = &data.train;
     let mut rows: Vec<&[f32]> = Vec::new();
     for k in 0..ds.len() {
         for t in 0..STEPS {
-            for i in 0..N_NODES {
-                if ds.mask[k * N_NODES + i] {
-                    let o = ((k * STEPS + t) * N_NODES + i) * FEATURE_DIM;
+            for i in 0..N {
+                if ds.mask[k * N + i] {
+                    let o = ((k * STEPS + t) * N + i) * FEATURE_DIM;
                     rows.push(&ds.x[o..o + FEATURE_DIM]);
                 }
             }
@@ -314,12 +314,12 @@ pub fn feature_correlation(data: &ProtocolData) -> Vec<Vec<f64>> {
 }
 
 /// Write every figure of a run into `dir`.
-pub fn run_figures(
+pub fn run_figures<const N: usize>(
     dir: &Path,
     report: &MetricsReport,
     history: &[EpochStats],
     inference: &Inference,
-    data: &ProtocolData,
+    data: &ProtocolData<N>,
 ) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let classes = &report.classes;

@@ -9,6 +9,7 @@ pub mod cli;
 pub mod compare;
 pub mod data;
 pub mod dataset;
+pub mod derived;
 pub mod export;
 pub mod featurize;
 pub mod figures;

@@ -196,10 +196,10 @@ pub struct MetricsReport {
 /// Evaluate any classifier of windows (`predictor`: one class per window of a data
 /// set) on the test side of `data`, clean and at every [`NOISE_SNR_DB`] (noise seeds
 /// derived from `seed`), into the report.
-pub fn evaluate_with(
+pub fn evaluate_with<const N: usize>(
     predictor: &dyn Fn(&Dataset) -> Result<Vec<usize>>,
     arch: &str,
-    data: &ProtocolData,
+    data: &ProtocolData<N>,
     corpus: &Corpus,
     seed: u64,
     train_seconds: Option<f64>,
@@ -226,17 +226,13 @@ pub fn evaluate_with(
         });
     }
     let mut node_masked = Vec::new();
-    for (i, name) in crate::dataset::NODES.iter().enumerate() {
+    for (i, name) in data.nodes.iter().enumerate() {
         let mut masked = data.test.clone();
         for k in 0..masked.len() {
-            masked.mask[k * crate::dataset::N_NODES + i] = false;
+            masked.mask[k * N + i] = false;
         }
         let keep: Vec<bool> = (0..masked.len())
-            .map(|k| {
-                masked.mask[k * crate::dataset::N_NODES..(k + 1) * crate::dataset::N_NODES]
-                    .iter()
-                    .any(|&m| m)
-            })
+            .map(|k| masked.window_mask(k).iter().any(|&m| m))
             .collect();
         let sub = masked.select(&keep);
         let pred = predictor(&sub)?;

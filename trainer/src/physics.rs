@@ -113,14 +113,14 @@ pub fn spectrum_shape(x: &[f32], fs_hz: f32) -> [f32; SPEC_BANDS] {
     out
 }
 
-/// The simulated side of eq. 9.
+/// The simulated side of eq. 9, for `N` nodes.
 #[derive(Debug, Clone)]
-pub struct PhysicsEmbedding {
+pub struct PhysicsEmbedding<const N: usize = N_NODES> {
     /// Edge prior `P` from the simulated spectral correlation (symmetric, [0, 1]).
-    pub prior: [[f32; N_NODES]; N_NODES],
+    pub prior: [[f32; N]; N],
     /// Simulated windows (raw core features) and their fault-type label
     /// (index into [`SIM_CLASSES`]).
-    pub windows: Vec<(WindowFeatures<N_NODES>, usize)>,
+    pub windows: Vec<(WindowFeatures<N>, usize)>,
 }
 
 /// Pearson correlation of two equal-length vectors (0 if either is constant).
@@ -166,13 +166,26 @@ fn log_psd(x: &[f32], fs_hz: f32) -> Vec<f32> {
         .collect()
 }
 
-impl PhysicsEmbedding {
+impl PhysicsEmbedding<N_NODES> {
+    /// [`PhysicsEmbedding::build_for`] the measured nodes [`NODES`].
+    ///
+    /// # Errors
+    /// As [`PhysicsEmbedding::build_for`].
+    pub fn build(rpms: &[f32], seed: u64) -> anyhow::Result<Self> {
+        Self::build_for(rpms, seed, &NODES)
+    }
+}
+
+impl<const N: usize> PhysicsEmbedding<N> {
     /// Simulate the hypotheses at the shaft speeds `rpms` (one set per distinct speed)
-    /// and featurize them as the measured records are. Deterministic for a seed.
+    /// and featurize them for the nodes `nodes` as the measured records are (derived
+    /// nodes, [`crate::derived`], from each simulated record's DE channel).
+    /// Deterministic for a seed.
     ///
     /// # Errors
     /// A simulation or preprocessing failure (they do not happen for these settings).
-    pub fn build(rpms: &[f32], seed: u64) -> anyhow::Result<Self> {
+    pub fn build_for(rpms: &[f32], seed: u64, nodes: &[&'static str; N]) -> anyhow::Result<Self> {
+        let derive = nodes.iter().any(|n| crate::derived::is_derived(n));
         let mut speeds: Vec<f32> = rpms.to_vec();
         speeds.sort_by(f32::total_cmp);
         speeds.dedup_by(|a, b| (*a - *b).abs() < 20.0);
@@ -186,7 +199,7 @@ impl PhysicsEmbedding {
         let natural_hz = [2_600.0f64, 3_400.0];
         let impact_n = [15.0f64, 60.0];
         let orders = BearingGeometry::CWRU_6205_DE.orders();
-        let mut prior_sum = [[0.0f64; N_NODES]; N_NODES];
+        let mut prior_sum = [[0.0f64; N]; N];
         let mut prior_n = 0usize;
         let mut windows = Vec::new();
         let mut k = 0u64;
@@ -202,17 +215,23 @@ impl PhysicsEmbedding {
                         spec.impact_amplitude_n = amp;
                         spec.measurement_noise = SIM_MEASUREMENT_NOISE;
                         let raw = simulate(&spec)?;
-                        let rec = preprocess(&raw, &PreprocessConfig::default())?;
+                        let mut rec = preprocess(&raw, &PreprocessConfig::default())?;
+                        if derive {
+                            // A simulated record is training-side only: derived over
+                            // the whole record.
+                            let len = rec.len();
+                            crate::derived::append_channels(&mut rec, len);
+                        }
                         // s_space: spectral correlation between the nodes.
-                        let psd: Vec<Vec<f32>> = NODES
+                        let psd: Vec<Vec<f32>> = nodes
                             .iter()
                             .map(|n| {
                                 rec.channel(n)
                                     .map_or_else(Vec::new, |c| log_psd(&c.samples, rec.fs_hz))
                             })
                             .collect();
-                        for i in 0..N_NODES {
-                            for j in 0..N_NODES {
+                        for i in 0..N {
+                            for j in 0..N {
                                 prior_sum[i][j] += f64::from(pearson(&psd[i], &psd[j]).max(0.0));
                             }
                         }
@@ -224,16 +243,16 @@ impl PhysicsEmbedding {
                             .take_while(|s| s + WINDOW <= rec.len())
                             .collect();
                         let mut counts = MaskCounts::default();
-                        for f in window_features(&rec, &NODES, &cfg, &starts, &mut counts) {
+                        for f in window_features(&rec, nodes, &cfg, &starts, &mut counts) {
                             windows.push((f, label));
                         }
                     }
                 }
             }
         }
-        let mut prior = [[0.0f32; N_NODES]; N_NODES];
-        for i in 0..N_NODES {
-            for j in 0..N_NODES {
+        let mut prior = [[0.0f32; N]; N];
+        for i in 0..N {
+            for j in 0..N {
                 let v = 0.5 * (prior_sum[i][j] + prior_sum[j][i]) / prior_n.max(1) as f64;
                 prior[i][j] = v.clamp(0.0, 1.0) as f32;
             }
@@ -242,7 +261,7 @@ impl PhysicsEmbedding {
     }
 
     /// The dynamic graph construction with this prior (β, w, τ as the uniform one).
-    pub fn graph(&self) -> GraphConfig<N_NODES> {
+    pub fn graph(&self) -> GraphConfig<N> {
         GraphConfig {
             prior: self.prior,
             ..GraphConfig::uniform()

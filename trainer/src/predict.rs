@@ -20,7 +20,9 @@ use pumptwin_core::dsstgat::{probabilities_into, Output};
 use serde::Serialize;
 
 use crate::cli::{LoadedRecord, RecordArgs};
-use crate::dataset::{copy_window_samples, Dataset, NODES, N_INDICATORS, N_NODES};
+use crate::dataset::{
+    copy_window_samples, windows_end_to_end, Dataset, NodeSet, DERIVED_NODES, NODES, N_INDICATORS,
+};
 use crate::export::{is_model_file, load_model_file, ARCH_INT8};
 use crate::featurize::{feature_config, window_features, window_graphs, MaskCounts, WINDOW};
 use crate::training::{load_trained_config, Batch, BatchParts, Network};
@@ -115,16 +117,9 @@ pub fn run_predict(args: &PredictArgs) -> Result<()> {
         rec.len(),
         rec.fs_hz
     );
-    let mut counts = MaskCounts::default();
-    let wf = window_features(&rec, &NODES, &cfg, &starts, &mut counts);
-    let missing: Vec<String> = NODES
-        .iter()
-        .filter(|n| rec.channel(n).is_none())
-        .map(|n| (*n).to_string())
-        .collect();
     // Model-specific normalization, graph and forward. A burn model's config (classes,
-    // graph, architecture) is read once and its network loaded in inference mode (batch
-    // norm on its running statistics, no dropout).
+    // graph, architecture, nodes) is read once and its network loaded in inference mode
+    // (batch norm on its running statistics, no dropout).
     let device = Device::flex();
     let model = if is_model_file(&args.model) {
         PredictModel::Int8(load_model_file(&args.model)?)
@@ -136,27 +131,85 @@ pub fn run_predict(args: &PredictArgs) -> Result<()> {
             .valid();
         PredictModel::Burn { cfg, norm, net }
     };
-    let (classes, norm, graph) = match &model {
+    let input = Input {
+        args,
+        fs_hz_input: raw.fs_hz,
+        rec: &rec,
+        cfg: &cfg,
+        starts: &starts,
+    };
+    match &model {
+        PredictModel::Burn { cfg, .. } if cfg.node_set()? == NodeSet::Derived => {
+            predict_with(&input, &model, &device, DERIVED_NODES)
+        }
+        _ => predict_with(&input, &model, &device, NODES),
+    }
+}
+
+/// The recording and its windows, as `predict` prepared them.
+struct Input<'a> {
+    args: &'a PredictArgs,
+    fs_hz_input: f32,
+    rec: &'a crate::data::record::Recording,
+    cfg: &'a pumptwin_core::features::FeatureConfig,
+    starts: &'a [usize],
+}
+
+/// `predict` for a model whose nodes are `nodes`.
+fn predict_with<const N: usize>(
+    input: &Input<'_>,
+    model: &PredictModel,
+    device: &Device,
+    nodes: [&'static str; N],
+) -> Result<()> {
+    let Input {
+        args,
+        fs_hz_input,
+        rec,
+        cfg,
+        starts,
+    } = *input;
+    // Derived nodes come from each window's own samples: the windows end to end.
+    let derive = nodes.iter().any(|n| crate::derived::is_derived(n));
+    let scratch;
+    let (src, src_starts): (&crate::data::record::Recording, Vec<usize>) = if derive {
+        scratch = windows_end_to_end(rec, starts, true);
+        (&scratch, (0..starts.len()).map(|k| k * WINDOW).collect())
+    } else {
+        (rec, starts.to_vec())
+    };
+    let mut counts = MaskCounts::default();
+    let mut wf = window_features(src, &nodes, cfg, &src_starts, &mut counts);
+    for (w, &s) in wf.iter_mut().zip(starts) {
+        w.start = s;
+    }
+    let missing: Vec<String> = nodes
+        .iter()
+        .filter(|n| src.channel(n).is_none())
+        .map(|n| (*n).to_string())
+        .collect();
+    let (classes, norm, graph) = match model {
         PredictModel::Int8(m) => {
             let (norm, _) = m.norms()?;
-            (m.classes(), norm, m.file.graph_config::<N_NODES>()?)
+            (m.classes(), norm, m.file.graph_config::<N>()?)
         }
         PredictModel::Burn { cfg, norm, .. } => (cfg.classes.clone(), *norm, cfg.graph_config()),
     };
     // The raw samples too, for a raw-signal baseline.
-    let with_raw = matches!(&model, PredictModel::Burn { net, .. } if net.raw());
-    let mut ds = Dataset::default();
+    let with_raw = matches!(model, PredictModel::Burn { net, .. } if net.raw());
+    let mut ds = Dataset::new(N);
     for w in &wf {
         let (x, a) = window_graphs(w, &norm, &graph)
             .map_err(|e| anyhow::anyhow!("window at sample {}: {e}", w.start))?;
         ds.push(&x, &a, &w.mask.0, &[0.0; N_INDICATORS], 0, 0);
         if with_raw {
             let o = ds.raw.len();
-            ds.raw.resize(o + Dataset::RAW_PER_WINDOW, 0.0);
-            copy_window_samples(&rec, w.start, &mut ds.raw[o..]);
+            ds.raw.resize(o + ds.raw_per_window(), 0.0);
+            let k = ds.len() - 1;
+            copy_window_samples(src, &nodes, src_starts[k], &mut ds.raw[o..]);
         }
     }
-    let probs: Vec<Vec<f32>> = match &model {
+    let probs: Vec<Vec<f32>> = match model {
         PredictModel::Int8(m) => {
             let outs: Vec<Output<16, 8>> = crate::export::int8_outputs(&m.model, &ds)?;
             let c = m.model.classes();
@@ -176,7 +229,7 @@ pub fn run_predict(args: &PredictArgs) -> Result<()> {
             let idx: Vec<usize> = (0..ds.len()).collect();
             let mut out = Vec::with_capacity(ds.len());
             for chunk in idx.chunks(256) {
-                let b = Batch::with_parts(&ds, chunk, parts, &device);
+                let b = Batch::with_parts(&ds, chunk, parts, device);
                 let p = softmax(net.output(&b).logits, 1);
                 let v = p
                     .into_data()
@@ -197,7 +250,7 @@ pub fn run_predict(args: &PredictArgs) -> Result<()> {
             start_s: w.start as f64 / f64::from(rec.fs_hz),
             class,
             probabilities: classes.iter().cloned().zip(p.iter().copied()).collect(),
-            masked_nodes: NODES
+            masked_nodes: nodes
                 .iter()
                 .zip(w.mask.0)
                 .filter(|(_, m)| !m)
@@ -213,13 +266,13 @@ pub fn run_predict(args: &PredictArgs) -> Result<()> {
     let report = Prediction {
         input: args.record.input.display().to_string(),
         model: args.model.display().to_string(),
-        arch: match &model {
+        arch: match model {
             PredictModel::Int8(_) => ARCH_INT8.to_string(),
             PredictModel::Burn { cfg, .. } => cfg.report_name(),
         },
-        fs_hz_input: raw.fs_hz,
+        fs_hz_input,
         fs_hz_model: rec.fs_hz,
-        resampled: (raw.fs_hz - rec.fs_hz).abs() > 1e-3,
+        resampled: (fs_hz_input - rec.fs_hz).abs() > 1e-3,
         missing_nodes: missing,
         windows,
         majority_class,

@@ -58,7 +58,8 @@ use crate::baselines::{CoFusionCnn, GcnGru, Tst, Wdcnn};
 use crate::data::preprocess::PreprocessConfig;
 use crate::data::windows::{Protocol, WindowConfig};
 use crate::dataset::{
-    Corpus, Dataset, IndicatorNorm, ProtocolData, FEATURES, N_INDICATORS, N_NODES, STEPS,
+    Corpus, Dataset, IndicatorNorm, NodeSet, ProtocolData, DERIVED_NODES, FEATURES, NODES,
+    N_INDICATORS, N_NODES, STEPS,
 };
 use crate::featurize::WINDOW;
 use crate::metrics::{evaluate_with, MetricsReport};
@@ -184,6 +185,10 @@ pub struct TrainConfig {
     /// Class names in label order (filled in by `train`).
     #[config(default = "Vec::new()")]
     pub classes: Vec<String>,
+    /// Node layout (`measured`: DE, FE, BA; `derived`: plus the paper's derived
+    /// temperature and pressure nodes, [`crate::derived`]).
+    #[config(default = "String::from(\"measured\")")]
+    pub nodes: String,
 }
 
 impl TrainConfig {
@@ -210,13 +215,24 @@ impl TrainConfig {
             .map_err(|_| anyhow::anyhow!("unknown ablation {:?}", self.ablation))
     }
 
-    /// The name written to reports: the architecture, with the ablation if any.
+    /// The node layout.
+    pub fn node_set(&self) -> Result<NodeSet> {
+        <NodeSet as clap::ValueEnum>::from_str(&self.nodes, false)
+            .map_err(|_| anyhow::anyhow!("unknown node layout {:?}", self.nodes))
+    }
+
+    /// The name written to reports: the architecture, with the ablation if any, and
+    /// `+derived-nodes` with the derived-node layout.
     pub fn report_name(&self) -> String {
-        if self.ablation == "none" {
+        let mut name = if self.ablation == "none" {
             self.arch.clone()
         } else {
             format!("{}-{}", self.arch, self.ablation)
+        };
+        if self.nodes == "derived" {
+            name.push_str("+derived-nodes");
         }
+        name
     }
 
     /// Whether eq. 9 applies (DS-STGAT, not `no-physics`).
@@ -230,11 +246,11 @@ impl TrainConfig {
     }
 
     /// The graph construction of this run (dynamic on the stored prior, or static).
-    pub fn graph_config(&self) -> GraphConfig<N_NODES> {
-        let mut prior = [[1.0f32; N_NODES]; N_NODES];
-        if self.graph_prior.len() == N_NODES * N_NODES {
+    pub fn graph_config<const N: usize>(&self) -> GraphConfig<N> {
+        let mut prior = [[1.0f32; N]; N];
+        if self.graph_prior.len() == N * N {
             for (k, v) in self.graph_prior.iter().enumerate() {
-                prior[k / N_NODES][k % N_NODES] = *v;
+                prior[k / N][k % N] = *v;
             }
         }
         if self.graph_static {
@@ -304,22 +320,21 @@ impl Batch {
     /// them).
     pub fn with_parts(ds: &Dataset, idx: &[usize], parts: BatchParts, device: &Device) -> Self {
         let b = idx.len();
-        let (xw, aw) = (Dataset::X_PER_WINDOW, Dataset::ADJ_PER_WINDOW);
+        let n = ds.nodes;
+        let (xw, aw) = (ds.x_per_window(), ds.adj_per_window());
         let mut x = Vec::with_capacity(b * xw);
         let mut adj = Vec::with_capacity(b * aw);
-        let mut mask = Vec::with_capacity(b * N_NODES);
+        let mut mask = Vec::with_capacity(b * n);
         let mut labels = Vec::with_capacity(b);
         let mut ind = Vec::with_capacity(b * N_INDICATORS);
         for &k in idx {
             x.extend_from_slice(&ds.x[k * xw..(k + 1) * xw]);
             adj.extend_from_slice(&ds.adj[k * aw..(k + 1) * aw]);
-            mask.extend(ds.mask[k * N_NODES..(k + 1) * N_NODES].iter().map(|&m| {
-                if m {
-                    1.0f32
-                } else {
-                    0.0
-                }
-            }));
+            mask.extend(
+                ds.window_mask(k)
+                    .iter()
+                    .map(|&m| if m { 1.0f32 } else { 0.0 }),
+            );
             labels.push(ds.label[k]);
             ind.extend_from_slice(&ds.indicators[k * N_INDICATORS..(k + 1) * N_INDICATORS]);
         }
@@ -334,11 +349,11 @@ impl Batch {
             v
         };
         let raw = parts.raw.then(|| {
-            let v = gather(&ds.raw, Dataset::RAW_PER_WINDOW);
-            Tensor::from_data(TensorData::new(v, [b, N_NODES, WINDOW]), device)
+            let v = gather(&ds.raw, ds.raw_per_window());
+            Tensor::from_data(TensorData::new(v, [b, n, WINDOW]), device)
         });
         let (spectra, theta, theta_known) = if parts.physics {
-            let sp = gather(&ds.spectra, Dataset::SPEC_PER_WINDOW);
+            let sp = gather(&ds.spectra, ds.spec_per_window());
             let th = gather(&ds.theta, N_THETA);
             let known: Vec<f32> = th
                 .iter()
@@ -350,7 +365,7 @@ impl Batch {
                 .collect();
             (
                 Some(Tensor::from_data(
-                    TensorData::new(sp, [b, N_NODES, SPEC_BANDS]),
+                    TensorData::new(sp, [b, n, SPEC_BANDS]),
                     device,
                 )),
                 Some(Tensor::from_data(TensorData::new(th, [b, N_THETA]), device)),
@@ -363,9 +378,9 @@ impl Batch {
             (None, None, None)
         };
         Self {
-            x: Tensor::from_data(TensorData::new(x, [b, STEPS, N_NODES, FEATURES]), device),
-            adj: Tensor::from_data(TensorData::new(adj, [b, STEPS, N_NODES, N_NODES]), device),
-            mask: Tensor::from_data(TensorData::new(mask, [b, N_NODES]), device),
+            x: Tensor::from_data(TensorData::new(x, [b, STEPS, n, FEATURES]), device),
+            adj: Tensor::from_data(TensorData::new(adj, [b, STEPS, n, n]), device),
+            mask: Tensor::from_data(TensorData::new(mask, [b, n]), device),
             labels: Tensor::from_data(TensorData::new(labels, [b]), device),
             indicators: Tensor::from_data(TensorData::new(ind, [b, N_INDICATORS]), device),
             raw,
@@ -586,12 +601,13 @@ macro_rules! with_net {
 impl Network {
     /// A fresh network of `cfg.arch` for `classes` classes on `device`.
     pub fn init(cfg: &TrainConfig, classes: usize, device: &Device) -> Result<Self> {
+        let n = cfg.node_set()?.count();
         Ok(match cfg.arch()? {
             Arch::DsStgat => Self::DsStgat(cfg.model_config(classes).init(device)),
             Arch::GcnGru => Self::GcnGru(GcnGru::new(FEATURES, cfg.hidden, classes, device)),
-            Arch::Wdcnn => Self::Wdcnn(Wdcnn::new(N_NODES, classes, device)),
-            Arch::CoFusionCnn => Self::CoFusionCnn(CoFusionCnn::new(N_NODES, classes, device)),
-            Arch::Tst => Self::Tst(Tst::new(N_NODES, classes, device)),
+            Arch::Wdcnn => Self::Wdcnn(Wdcnn::new(n, classes, device)),
+            Arch::CoFusionCnn => Self::CoFusionCnn(CoFusionCnn::new(n, classes, device)),
+            Arch::Tst => Self::Tst(Tst::new(n, classes, device)),
         })
     }
 
@@ -788,12 +804,12 @@ fn dropout_mask(
     rng: &mut Xoshiro128pp,
     device: &Device,
 ) -> Tensor<2> {
-    let mut mask = Vec::with_capacity(idx.len() * N_NODES);
+    let mut mask = Vec::with_capacity(idx.len() * ds.nodes);
     for &k in idx {
-        let present = &ds.mask[k * N_NODES..(k + 1) * N_NODES];
+        let present = ds.window_mask(k);
         let mut keep: Vec<bool> = present.iter().map(|&m| m && rng.uniform() >= p).collect();
         if !keep.iter().any(|&m| m) {
-            let nodes: Vec<usize> = (0..N_NODES).filter(|&i| present[i]).collect();
+            let nodes: Vec<usize> = (0..ds.nodes).filter(|&i| present[i]).collect();
             if !nodes.is_empty() {
                 let pick = ((rng.uniform() * nodes.len() as f64) as usize).min(nodes.len() - 1);
                 keep[nodes[pick]] = true;
@@ -801,7 +817,7 @@ fn dropout_mask(
         }
         mask.extend(keep.iter().map(|&m| if m { 1.0f32 } else { 0.0 }));
     }
-    Tensor::from_data(TensorData::new(mask, [idx.len(), N_NODES]), device)
+    Tensor::from_data(TensorData::new(mask, [idx.len(), ds.nodes]), device)
 }
 
 /// Fisher–Yates shuffle from the seeded stream.
@@ -927,9 +943,9 @@ pub struct PhysicsInit {
 }
 
 /// Build the simulated pre-training set of eq. 9 with the measured normalization.
-pub fn physics_init(
-    emb: &PhysicsEmbedding,
-    data: &ProtocolData,
+pub fn physics_init<const N: usize>(
+    emb: &PhysicsEmbedding<N>,
+    data: &ProtocolData<N>,
 ) -> Result<PhysicsInit, crate::dataset::DatasetError> {
     let feats: Vec<_> = emb.windows.iter().map(|(w, _)| w.clone()).collect();
     let refs: Vec<(crate::data::WindowRef, usize)> = emb
@@ -961,9 +977,9 @@ pub fn physics_init(
 /// figures (with the test accuracy when `monitor_test`). For the DS-STGAT, `physics`
 /// (eq. 9) pre-trains the network on the simulated windows first, and the
 /// co-adaptation heads are trained alongside unless the ablation is `no-coadapt`.
-pub fn train(
+pub fn train<const N: usize>(
     cfg: &TrainConfig,
-    data: &ProtocolData,
+    data: &ProtocolData<N>,
     physics: Option<&PhysicsInit>,
     monitor_test: bool,
     progress: &mut dyn FnMut(&EpochStats),
@@ -1176,6 +1192,11 @@ pub struct TrainArgs {
     /// DS-STGAT ablation.
     #[arg(long, value_enum, default_value = "none")]
     pub ablation: Ablation,
+    /// Node layout: the measured DE/FE/BA sensors, or those plus the paper's derived
+    /// temperature and pressure nodes (section 6.2; float models only, reported
+    /// separately).
+    #[arg(long, value_enum, default_value = "measured")]
+    pub nodes: NodeSet,
     /// Cache of the closed loop's per-record Θ fits (F_map's targets).
     #[arg(long, default_value = "out/cache/theta")]
     pub theta_cache: PathBuf,
@@ -1245,18 +1266,27 @@ pub fn load_corpus(data_dir: &Path) -> Result<Corpus> {
 
 /// Build a protocol's data from a corpus with graph construction `graph`, reporting
 /// sizes and timings on stderr.
-pub fn build_protocol(
+pub fn build_protocol<const N: usize>(
     corpus: &Corpus,
     protocol: Protocol,
     norms: Option<(FeatureNorm, IndicatorNorm)>,
-    graph: GraphConfig<N_NODES>,
-) -> Result<ProtocolData> {
-    let data = ProtocolData::build(corpus, protocol, &WindowConfig::default(), norms, graph)
-        .with_context(|| format!("cannot build the {protocol} data"))?;
+    graph: GraphConfig<N>,
+    nodes: [&'static str; N],
+) -> Result<ProtocolData<N>> {
+    let data = ProtocolData::build(
+        corpus,
+        protocol,
+        &WindowConfig::default(),
+        norms,
+        graph,
+        nodes,
+    )
+    .with_context(|| format!("cannot build the {protocol} data"))?;
     let n = data.train.len() + data.test.len();
     eprintln!(
-        "protocol {protocol}: {}\n{}features + graphs of {n} windows in {:.2} s \
+        "protocol {protocol}, nodes {}: {}\n{}features + graphs of {n} windows in {:.2} s \
          ({:.2} ms per window); masked node-windows: {} missing channel, {} rejected signal",
+        nodes.join(", "),
         protocol.description(),
         data.counts_table(),
         data.featurize_seconds,
@@ -1267,15 +1297,17 @@ pub fn build_protocol(
     Ok(data)
 }
 
-/// Load the corpus and build a protocol's data with graph construction `graph`.
-pub fn load_protocol(
+/// Load the corpus and build a protocol's data for `nodes` with graph construction
+/// `graph`.
+pub fn load_protocol<const N: usize>(
     data_dir: &Path,
     protocol: Protocol,
     norms: Option<(FeatureNorm, IndicatorNorm)>,
-    graph: GraphConfig<N_NODES>,
-) -> Result<(Corpus, ProtocolData)> {
+    graph: GraphConfig<N>,
+    nodes: [&'static str; N],
+) -> Result<(Corpus, ProtocolData<N>)> {
     let corpus = load_corpus(data_dir)?;
-    let data = build_protocol(&corpus, protocol, norms, graph)?;
+    let data = build_protocol(&corpus, protocol, norms, graph, nodes)?;
     Ok((corpus, data))
 }
 
@@ -1341,25 +1373,39 @@ pub fn run_train(args: &TrainArgs) -> Result<()> {
     }
     cfg.arch = value_name(&args.arch);
     cfg.ablation = value_name(&args.ablation);
+    cfg.nodes = value_name(&args.nodes);
     if cfg.arch != ARCH && cfg.ablation != "none" {
         bail!(
             "ablations apply to the DS-STGAT only (got --arch {})",
             cfg.arch
         );
     }
+    match args.nodes {
+        NodeSet::Measured => train_with(args, cfg, NODES),
+        NodeSet::Derived => train_with(args, cfg, DERIVED_NODES),
+    }
+}
+
+/// `pumptwin train` for the nodes `nodes`.
+fn train_with<const N: usize>(
+    args: &TrainArgs,
+    mut cfg: TrainConfig,
+    nodes: [&'static str; N],
+) -> Result<()> {
     let corpus = load_corpus(&args.data)?;
     // Eq. 9: the simulated responses at the training records' speeds give the edge
     // prior (and, below, the pre-training set).
     let embedding = if cfg.uses_physics_embedding() {
         let t0 = Instant::now();
         let rpms = training_rpms(&corpus, args.protocol)?;
-        let emb = PhysicsEmbedding::build(&rpms, cfg.seed)?;
+        let emb = PhysicsEmbedding::build_for(&rpms, cfg.seed, &nodes)?;
         eprintln!(
             "physics embedding: {} simulated windows at {} speeds in {:.1} s; \
-             edge prior P (DE, FE, BA) = {:.3?}",
+             edge prior P ({}) = {:.3?}",
             emb.windows.len(),
             rpms.len(),
             t0.elapsed().as_secs_f64(),
+            nodes.join(", "),
             emb.prior
         );
         cfg.graph_prior = emb.prior.iter().flatten().copied().collect();
@@ -1369,7 +1415,7 @@ pub fn run_train(args: &TrainArgs) -> Result<()> {
         None
     };
     cfg.graph_static = cfg.ablation == "static-graph";
-    let mut data = build_protocol(&corpus, args.protocol, None, cfg.graph_config())?;
+    let mut data = build_protocol(&corpus, args.protocol, None, cfg.graph_config(), nodes)?;
     cfg.protocol = args.protocol.name().to_string();
     cfg.classes = data.classes().to_vec();
     let mut norms = SavedNorms::new(&data.norm, &data.indicator_norm);
@@ -1487,12 +1533,12 @@ pub fn run_train(args: &TrainArgs) -> Result<()> {
 ///                        the record's windows (z-units, mean over components): a record
 ///                        is one bearing state, so Θ̂ should not move within it
 /// ```
-pub fn evaluate_network(
+pub fn evaluate_network<const N: usize>(
     net: &Network,
     heads: Option<&PhysicsHeads>,
     cfg: &TrainConfig,
     theta_norm: Option<([f32; N_THETA], [f32; N_THETA])>,
-    data: &ProtocolData,
+    data: &ProtocolData<N>,
     corpus: &Corpus,
     train_seconds: Option<f64>,
     device: &Device,
@@ -1558,8 +1604,22 @@ pub fn run_eval(args: &EvalArgs) -> Result<()> {
             args.protocol
         );
     }
+    match cfg.node_set()? {
+        NodeSet::Measured => eval_with(args, &cfg, norms, NODES),
+        NodeSet::Derived => eval_with(args, &cfg, norms, DERIVED_NODES),
+    }
+}
+
+/// `pumptwin eval` of a burn model whose nodes are `nodes`.
+fn eval_with<const N: usize>(
+    args: &EvalArgs,
+    cfg: &TrainConfig,
+    norms: Option<(FeatureNorm, IndicatorNorm)>,
+    nodes: [&'static str; N],
+) -> Result<()> {
     let saved = read_saved_norms(&args.model);
-    let (corpus, data) = load_protocol(&args.data, args.protocol, norms, cfg.graph_config())?;
+    let (corpus, data) =
+        load_protocol(&args.data, args.protocol, norms, cfg.graph_config(), nodes)?;
     if !cfg.classes.is_empty() && cfg.classes != data.classes() {
         bail!(
             "the model was trained on classes {:?} ({}), protocol {} has {:?}",
@@ -1571,7 +1631,7 @@ pub fn run_eval(args: &EvalArgs) -> Result<()> {
     }
     let plain = Device::flex();
     // `valid()`: inference mode (batch norm on its running statistics, no dropout).
-    let net = Network::init(&cfg, data.classes().len(), &plain)?
+    let net = Network::init(cfg, data.classes().len(), &plain)?
         .load(&args.model)?
         .valid();
     let heads_path = args
@@ -1591,7 +1651,7 @@ pub fn run_eval(args: &EvalArgs) -> Result<()> {
     let (report, inference) = evaluate_network(
         &net,
         heads.as_ref(),
-        &cfg,
+        cfg,
         saved.as_ref().and_then(SavedNorms::theta),
         &data,
         &corpus,
@@ -1626,7 +1686,13 @@ fn read_saved_norms(model: &Path) -> Option<SavedNorms> {
 fn run_eval_int8(args: &EvalArgs) -> Result<()> {
     let loaded = crate::export::load_model_file(&args.model)?;
     let graph = loaded.file.graph_config::<N_NODES>()?;
-    let (corpus, data) = load_protocol(&args.data, args.protocol, Some(loaded.norms()?), graph)?;
+    let (corpus, data) = load_protocol(
+        &args.data,
+        args.protocol,
+        Some(loaded.norms()?),
+        graph,
+        NODES,
+    )?;
     if loaded.classes() != data.classes() {
         bail!(
             "the model's classes {:?} differ from protocol {}'s {:?}",
@@ -1701,6 +1767,7 @@ mod tests {
     fn tiny_protocol() -> ProtocolData {
         ProtocolData {
             protocol: Protocol::TimeBlock,
+            nodes: NODES,
             split: Split {
                 protocol: Protocol::TimeBlock,
                 classes: vec!["a".into(), "b".into()],
@@ -1784,10 +1851,10 @@ mod tests {
         let mut data = tiny_protocol();
         let mut rng = Xoshiro128pp::seed_from_u64(9);
         for ds in [&mut data.train, &mut data.test] {
-            ds.raw = (0..ds.len() * Dataset::RAW_PER_WINDOW)
+            ds.raw = (0..ds.len() * ds.raw_per_window())
                 .map(|_| rng.normal() as f32)
                 .collect();
-            ds.spectra = vec![0.0; ds.len() * Dataset::SPEC_PER_WINDOW];
+            ds.spectra = vec![0.0; ds.len() * ds.spec_per_window()];
         }
         let mut cfg = TrainConfig::new().with_epochs(1).with_batch_size(8);
         cfg.arch = "wdcnn".into();

@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 use burn::module::Module;
 use burn::tensor::Device;
 use pumptwin_trainer::data::windows::Protocol;
+use pumptwin_trainer::dataset::NODES;
 use pumptwin_trainer::export::{burn_logits, int8_outputs, load_model_file};
 use pumptwin_trainer::training::{load_protocol, load_trained_config};
 
@@ -25,7 +26,8 @@ fn shipped_int8_model_agrees_with_the_float_model_on_cwru() {
     let float_path = root().join("models/dsstgat-cwru-tb.float/model.bpk");
     let int8 = load_model_file(&root().join("models/dsstgat-cwru-tb.ptm")).unwrap();
     let (cfg, norms) = load_trained_config(&float_path).unwrap();
-    let (_, pd) = load_protocol(&data, Protocol::TimeBlock, norms, cfg.graph_config()).unwrap();
+    let (_, pd) =
+        load_protocol(&data, Protocol::TimeBlock, norms, cfg.graph_config(), NODES).unwrap();
     assert_eq!(int8.classes(), pd.classes());
     let device = Device::flex();
     let burn = cfg

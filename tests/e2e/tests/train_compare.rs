@@ -1,15 +1,18 @@
 //! `pumptwin train`, `eval`, `predict` and `compare` end to end on the measured CWRU
 //! records: the full DS-STGAT (physics embedding, co-adaptation heads) and a raw-signal
-//! baseline (WDCNN), one epoch each on `time-block`. Checks the files and the
-//! `metrics.json` keys downstream tools read, that `eval` of the saved model gives the
-//! training run's figures back, that `predict` runs a baseline, and that `compare`
-//! tabulates the runs. Skips with a notice when `../shared/data/cwru` is absent.
+//! baseline (WDCNN), one epoch each on `time-block`, and the DS-STGAT with the derived
+//! temperature/pressure nodes. Checks the files and the `metrics.json` keys downstream
+//! tools read, that `eval` of the saved model gives the training run's figures back,
+//! that `predict` runs a baseline and a derived-node model, and that `compare`
+//! tabulates the runs (the derived-node one apart). Skips with a notice when
+//! `../shared/data/cwru` is absent.
 
 use std::path::{Path, PathBuf};
 
 use pumptwin_trainer::cli::RecordArgs;
 use pumptwin_trainer::compare::{run_compare, CompareArgs};
 use pumptwin_trainer::data::windows::Protocol;
+use pumptwin_trainer::dataset::NodeSet;
 use pumptwin_trainer::predict::{run_predict, PredictArgs};
 use pumptwin_trainer::training::{run_eval, run_train, Ablation, Arch, EvalArgs, TrainArgs};
 
@@ -30,7 +33,11 @@ fn train_eval_predict_compare_on_cwru() {
     }
     let tmp = std::env::temp_dir().join(format!("pumptwin-train-e2e-{}", std::process::id()));
     let runs = tmp.join("runs");
-    for (arch, name) in [(Arch::DsStgat, "dsstgat"), (Arch::Wdcnn, "wdcnn")] {
+    for (arch, nodes, name) in [
+        (Arch::DsStgat, NodeSet::Measured, "dsstgat"),
+        (Arch::Wdcnn, NodeSet::Measured, "wdcnn"),
+        (Arch::DsStgat, NodeSet::Derived, "dsstgat+derived-nodes"),
+    ] {
         let out = runs.join("time-block").join(name);
         run_train(&TrainArgs {
             data: data.clone(),
@@ -42,6 +49,7 @@ fn train_eval_predict_compare_on_cwru() {
             no_monitor: true,
             arch,
             ablation: Ablation::None,
+            nodes,
             theta_cache: tmp.join("theta"),
             no_figures: false,
         })
@@ -82,7 +90,10 @@ fn train_eval_predict_compare_on_cwru() {
             assert!(m["response_mse"].as_f64().unwrap() > 0.0);
             assert!(out.join("physics_heads.bpk").is_file());
             let cfg = json(&out.join("config.json"));
-            assert_eq!(cfg["graph_prior"].as_array().unwrap().len(), 9);
+            let n = if nodes == NodeSet::Derived { 5 } else { 3 };
+            assert_eq!(cfg["graph_prior"].as_array().unwrap().len(), n * n);
+            // One fault-only figure per node with that node masked.
+            assert_eq!(m["node_masked"].as_array().unwrap().len(), n, "{name}");
         }
         for png in [
             "confusion.png",
@@ -124,6 +135,25 @@ fn train_eval_predict_compare_on_cwru() {
     let p = json(&p_out);
     assert_eq!(p["arch"], "wdcnn");
     assert!(!p["windows"].as_array().unwrap().is_empty());
+    // … and a derived-node model, its extra nodes computed from the record's DE.
+    run_predict(&PredictArgs {
+        record: RecordArgs {
+            input: root().join("tests/data/cwru105_1s.csv"),
+            fs: Some(12_000.0),
+            rpm: Some(1797.0),
+            bearing: "cwru-6205-de".into(),
+        },
+        model: runs.join("time-block/dsstgat+derived-nodes/model.bpk"),
+        out: Some(p_out.clone()),
+    })
+    .unwrap();
+    let p = json(&p_out);
+    assert_eq!(p["arch"], "dsstgat+derived-nodes");
+    let windows = p["windows"].as_array().unwrap();
+    assert!(!windows.is_empty());
+    assert!(windows
+        .iter()
+        .all(|w| !w["masked_nodes"].to_string().contains("TEMP")));
     // compare tabulates what exists and trains nothing.
     let cmp_out = tmp.join("compare");
     run_compare(&CompareArgs {
@@ -145,6 +175,10 @@ fn train_eval_predict_compare_on_cwru() {
         .map(|r| r["model"].as_str().unwrap())
         .collect();
     assert_eq!(have, ["dsstgat", "wdcnn"]);
+    let separate = c["separate"].as_array().unwrap();
+    assert_eq!(separate.len(), 1);
+    assert_eq!(separate[0]["model"], "dsstgat+derived-nodes");
+    assert!(separate[0]["accuracy"][0].is_number());
     assert!(std::fs::read_to_string(cmp_out.join("compare.md"))
         .unwrap()
         .contains("| dsstgat |"));
