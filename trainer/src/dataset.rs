@@ -914,6 +914,42 @@ mod tests {
     }
 
     #[test]
+    fn derived_nodes_see_only_their_own_window() {
+        let n = 4 * WINDOW;
+        let tone = |k: usize| (k as f32 * 0.31).sin() + 0.3 * (k as f32 * 0.017).cos();
+        let rec = |outside: f32| Recording {
+            name: "r".into(),
+            fs_hz: 12_000.0,
+            rpm: None,
+            channels: vec![Channel {
+                name: "DE".into(),
+                samples: (0..n)
+                    .map(|k| {
+                        if (WINDOW..2 * WINDOW).contains(&k) {
+                            tone(k)
+                        } else {
+                            outside * tone(k)
+                        }
+                    })
+                    .collect(),
+            }],
+        };
+        // Same window samples, different history and future: same derived nodes.
+        let a = windows_end_to_end(&rec(1.0), &[WINDOW], true);
+        let b = windows_end_to_end(&rec(5.0), &[WINDOW], true);
+        for name in [crate::derived::TEMP, crate::derived::PRES] {
+            let (x, y) = (a.channel(name).unwrap(), b.channel(name).unwrap());
+            assert_eq!(x.samples.len(), WINDOW);
+            assert_eq!(x.samples, y.samples, "{name}");
+        }
+        // Without `derive` only the measured channel is copied.
+        let plain = windows_end_to_end(&rec(1.0), &[0, WINDOW], false);
+        assert_eq!(plain.channels.len(), 1);
+        assert_eq!(plain.len(), 2 * WINDOW);
+        assert_eq!(plain.channels[0].samples[WINDOW], tone(WINDOW));
+    }
+
+    #[test]
     fn noise_has_the_asked_snr() {
         let n = 4 * WINDOW;
         let samples: Vec<f32> = (0..n).map(|i| (i as f32 * 0.05).sin()).collect();

@@ -1232,13 +1232,27 @@ pub fn parse_protocol(name: &str) -> Result<Protocol> {
         .map_err(|e| anyhow::anyhow!("unknown protocol {name:?}: {e}"))
 }
 
+/// A `config.json`. One written before the node-layout option existed has no `nodes`
+/// key: it is a measured-node model, and is read as one.
+pub fn read_config(path: &Path) -> Result<TrainConfig> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let mut value: serde_json::Value =
+        serde_json::from_str(&text).with_context(|| format!("{} is not JSON", path.display()))?;
+    if let Some(obj) = value.as_object_mut() {
+        obj.entry("nodes")
+            .or_insert_with(|| serde_json::Value::String("measured".into()));
+    }
+    serde_json::from_value(value)
+        .with_context(|| format!("{} is not a training config", path.display()))
+}
+
 /// The `config.json` beside a trained model, and its `normalization.json` if present.
 pub fn load_trained_config(
     model: &Path,
 ) -> Result<(TrainConfig, Option<(FeatureNorm, IndicatorNorm)>)> {
     let dir = model.parent().unwrap_or(Path::new("."));
-    let cfg = TrainConfig::load(dir.join(CONFIG_FILE))
-        .with_context(|| format!("cannot read {}", dir.join(CONFIG_FILE).display()))?;
+    let cfg = read_config(&dir.join(CONFIG_FILE))?;
     let norms_path = dir.join(NORMS_FILE);
     let norms = if norms_path.is_file() {
         let text = std::fs::read_to_string(&norms_path)?;
@@ -1360,9 +1374,7 @@ fn training_rpms(corpus: &Corpus, protocol: Protocol) -> Result<Vec<f32>> {
 /// Run `pumptwin train`.
 pub fn run_train(args: &TrainArgs) -> Result<()> {
     let mut cfg = match &args.config {
-        Some(path) => {
-            TrainConfig::load(path).with_context(|| format!("cannot read {}", path.display()))?
-        }
+        Some(path) => read_config(path)?,
         None => TrainConfig::new(),
     };
     if let Some(e) = args.epochs {
@@ -1762,6 +1774,29 @@ mod tests {
             ds.push(&x, &a, &mask, &ind, label, k % 4);
         }
         ds
+    }
+
+    #[test]
+    fn a_config_without_the_node_layout_reads_as_measured() {
+        let dir = std::env::temp_dir().join(format!("pumptwin-cfg-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("config.json");
+        let mut v = serde_json::to_value(TrainConfig::new().with_epochs(3)).unwrap();
+        v.as_object_mut().unwrap().remove("nodes");
+        std::fs::write(&path, v.to_string()).unwrap();
+        let cfg = read_config(&path).unwrap();
+        assert_eq!((cfg.nodes.as_str(), cfg.epochs), ("measured", 3));
+        assert_eq!(cfg.node_set().unwrap(), NodeSet::Measured);
+        // A derived-node config keeps its layout; a wrong file is an error.
+        let derived = TrainConfig::new().with_nodes("derived".into());
+        std::fs::write(&path, serde_json::to_string(&derived).unwrap()).unwrap();
+        assert_eq!(
+            read_config(&path).unwrap().node_set().unwrap(),
+            NodeSet::Derived
+        );
+        std::fs::write(&path, "[1, 2]").unwrap();
+        assert!(read_config(&path).is_err());
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     fn tiny_protocol() -> ProtocolData {
