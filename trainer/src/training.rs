@@ -22,14 +22,25 @@
 //! the shuffles draw from a [`Xoshiro128pp`] with the same seed; the flex backend is
 //! single-process and bit-reproducible, so a seed fixes the run.
 //!
+//! Two cores: flex runs every op on one thread, so a batch of the DS-STGAT (and of
+//! GCN-GRU) is split into two replicas — its halves — each forward and backward on its
+//! own thread with its own copy of the parameters (`fork`: the same parameter ids, a
+//! separate autodiff graph). Each replica's loss is its part of the batch's loss (CE
+//! weights normalized over the whole batch, mean terms scaled by the replica's share),
+//! the gradients are added in a fixed order (first half, then second) and one Adam step
+//! follows: the batch gradient up to f32 rounding, still deterministic for a seed
+//! (`two_replicas_give_the_batch_gradient`). Batch-norm and dropout baselines keep one
+//! replica (`Net::DATA_PARALLEL`).
+//!
 //! Schedule: Adam, batches of 64, learning rate 1e-3 decaying along a half cosine to
 //! 5e-5 over 60 epochs. With a constant rate the last epochs oscillated (time-block,
 //! seed 42: 98.98 % after epoch 30 against a 99.69 % peak); 30 cosine epochs gave
 //! 99.37 %, 60 gave 99.61 %.
 //!
-//! Measured (CWRU, `time-block`, seed 42, flex backend on a 2-core host): 2 903
-//! training windows, 46 Adam steps per epoch at about 15 ms each (8 831 parameters),
-//! 0.68 s per epoch, 46 s for 60 epochs including the per-epoch test pass.
+//! Measured (CWRU, `time-block`, seed 42, flex backend on a 2-core host, two
+//! replicas, with the co-adaptation heads): 2 903 training windows, 46 Adam steps per
+//! epoch, 0.13 s per epoch, 9.9 s for 60 epochs (`pumptwin train --protocol
+//! time-block`; BENCHMARKS.md has the whole run's wall time).
 //!
 //! The per-epoch test accuracy is printed for monitoring only: the saved model is the
 //! one after the last epoch, never one picked on the test side.
@@ -47,7 +58,7 @@ use anyhow::{bail, Context, Result};
 use burn::config::Config;
 use burn::module::Module;
 use burn::optim::decay::WeightDecayConfig;
-use burn::optim::{AdamConfig, GradientsParams};
+use burn::optim::{AdamConfig, GradientsAccumulator, GradientsParams};
 use burn::tensor::activation::log_softmax;
 use burn::tensor::{Device, Int, Tensor, TensorData};
 use pumptwin_core::features::{FeatureNorm, FEATURE_DIM};
@@ -506,15 +517,21 @@ impl NetOutput {
 }
 
 /// A classifier of windows that the generic training loop can train.
-pub trait Net: Module {
+pub trait Net: Module + Send + Sync {
     /// Whether it reads `Batch::raw`.
     const RAW: bool;
+    /// Whether a batch may be split into two replicas on two threads (see `fit_net`):
+    /// not for a net with batch norm (its statistics are the whole batch's) or with
+    /// dropout (it draws from the device's random stream, whose order two threads
+    /// would make non-deterministic).
+    const DATA_PARALLEL: bool;
     /// Forward pass on a batch.
     fn output(&self, b: &Batch) -> NetOutput;
 }
 
 impl Net for DsStgat {
     const RAW: bool = false;
+    const DATA_PARALLEL: bool = true;
     fn output(&self, b: &Batch) -> NetOutput {
         let o = self.forward(b.x.clone(), b.adj.clone(), b.mask.clone());
         NetOutput {
@@ -528,6 +545,7 @@ impl Net for DsStgat {
 
 impl Net for GcnGru {
     const RAW: bool = false;
+    const DATA_PARALLEL: bool = true;
     fn output(&self, b: &Batch) -> NetOutput {
         let (logits, embedding) = self.forward(b.x.clone(), b.mask.clone());
         NetOutput::class_only(logits, embedding)
@@ -546,6 +564,7 @@ fn masked_raw(b: &Batch) -> Tensor<3> {
 
 impl Net for Wdcnn {
     const RAW: bool = true;
+    const DATA_PARALLEL: bool = false;
     fn output(&self, b: &Batch) -> NetOutput {
         let (logits, embedding) = self.forward(masked_raw(b));
         NetOutput::class_only(logits, embedding)
@@ -554,6 +573,7 @@ impl Net for Wdcnn {
 
 impl Net for CoFusionCnn {
     const RAW: bool = true;
+    const DATA_PARALLEL: bool = false;
     fn output(&self, b: &Batch) -> NetOutput {
         let (logits, embedding) = self.forward(masked_raw(b), b.mask.clone());
         NetOutput::class_only(logits, embedding)
@@ -562,6 +582,7 @@ impl Net for CoFusionCnn {
 
 impl Net for Tst {
     const RAW: bool = true;
+    const DATA_PARALLEL: bool = false;
     fn output(&self, b: &Batch) -> NetOutput {
         let (logits, embedding) = self.forward(masked_raw(b));
         NetOutput::class_only(logits, embedding)
@@ -746,7 +767,8 @@ pub fn mean_loss(
     let mut sum = 0.0f64;
     for chunk in idx.chunks(cfg.eval_batch_size.max(1)) {
         let b = Batch::new(ds, chunk, device);
-        let w = normalized_weights(chunk, ds, &weights, device);
+        let w = normalized_weights(chunk, ds, &weights);
+        let w = Tensor::from_data(TensorData::new(w, [chunk.len()]), device);
         let out = model.forward(b.x, b.adj, b.mask);
         let (loss, _, _) = loss_terms(
             out.logits,
@@ -762,24 +784,13 @@ pub fn mean_loss(
 }
 
 /// Class weights of the windows `chunk`, summing to 1.
-fn normalized_weights(
-    chunk: &[usize],
-    ds: &Dataset,
-    weights: &[f32],
-    device: &Device,
-) -> Tensor<1> {
+fn normalized_weights(chunk: &[usize], ds: &Dataset, weights: &[f32]) -> Vec<f32> {
     let w: Vec<f32> = chunk
         .iter()
         .map(|&k| weights[ds.label[k] as usize])
         .collect();
     let w_sum: f32 = w.iter().sum::<f32>().max(1e-12);
-    Tensor::<1>::from_data(
-        TensorData::new(
-            w.iter().map(|v| v / w_sum).collect::<Vec<f32>>(),
-            [chunk.len()],
-        ),
-        device,
-    )
+    w.iter().map(|v| v / w_sum).collect()
 }
 
 /// Share of `pred` equal to the labels.
@@ -832,6 +843,94 @@ fn shuffle(v: &mut [usize], rng: &mut Xoshiro128pp) {
 /// `train`, on the autodiff `device`. With `heads`, the loss adds
 /// `λ_phy·L_phy + λ_map·L_map` (eqs. 11, 23–24). `monitor` gets a test accuracy after
 /// each epoch (monitoring only).
+/// One replica's share of an optimizer step.
+struct ReplicaInput {
+    /// Its windows as tensors (node dropout applied).
+    batch: Batch,
+    /// Its windows' labels.
+    labels: Vec<i64>,
+    /// Its windows' class weights, normalized over the whole batch.
+    weights: Tensor<1>,
+    /// Its windows / the batch's.
+    share: f64,
+}
+
+/// What a replica gives back.
+struct ReplicaResult {
+    /// Gradients of the network's parameters.
+    model_grads: GradientsParams,
+    /// Gradients of the physics heads' parameters.
+    heads_grads: Option<GradientsParams>,
+    /// Its part of the batch's loss terms (total, CE, indicator, spectral, Θ).
+    sums: [f64; 5],
+    /// Its correctly classified windows.
+    correct: usize,
+}
+
+/// Forward and backward of one replica. Its loss is its part of the batch's loss: the
+/// CE with the batch-normalized weights as it is, the mean-type terms scaled by the
+/// replica's share of the windows, so that the replicas' gradients add up to the
+/// batch's (exactly for the CE and indicator terms; the spectral and Θ terms are
+/// means over each replica's present nodes / known targets).
+fn replica_step<M: Net>(
+    model: &M,
+    heads: Option<&PhysicsHeads>,
+    input: ReplicaInput,
+    cfg: &TrainConfig,
+) -> ReplicaResult {
+    let ReplicaInput {
+        batch,
+        labels,
+        weights,
+        share,
+    } = input;
+    let out = model.output(&batch);
+    let pred = out.logits.clone().argmax(1).into_data();
+    let correct = pred
+        .iter::<i64>()
+        .zip(&labels)
+        .filter(|(p, l)| p == *l)
+        .count();
+    let mut sums = [0.0f64; 5];
+    let ce = weighted_ce(out.logits, batch.labels.clone(), weights);
+    let mut loss = ce.clone();
+    sums[1] = f64::from(ce.into_scalar::<f32>());
+    if let Some(ind) = out.indicators {
+        let mse = (ind - batch.indicators.clone())
+            .square()
+            .mean()
+            .mul_scalar(share);
+        sums[2] = f64::from(mse.clone().into_scalar::<f32>());
+        loss = loss + mse.mul_scalar(cfg.lambda_indicator);
+    }
+    if let (Some(h), Some(states)) = (heads, out.node_states) {
+        let (sp, th) = h.forward(out.embedding, states);
+        let l_phy = spectral_loss(
+            sp,
+            batch.spectra.clone().expect("physics batch"),
+            batch.mask.clone(),
+        )
+        .mul_scalar(share);
+        let l_map = theta_loss(
+            th,
+            batch.theta.clone().expect("physics batch"),
+            batch.theta_known.clone().expect("physics batch"),
+        )
+        .mul_scalar(share);
+        sums[3] = f64::from(l_phy.clone().into_scalar::<f32>());
+        sums[4] = f64::from(l_map.clone().into_scalar::<f32>());
+        loss = loss + l_phy.mul_scalar(cfg.lambda_phy) + l_map.mul_scalar(cfg.lambda_map);
+    }
+    sums[0] = f64::from(loss.clone().into_scalar::<f32>());
+    let mut grads = loss.backward();
+    ReplicaResult {
+        model_grads: GradientsParams::from_module(&mut grads, model),
+        heads_grads: heads.map(|h| GradientsParams::from_module(&mut grads, h)),
+        sums,
+        correct,
+    }
+}
+
 fn fit_net<M: Net>(
     mut model: M,
     mut heads: Option<PhysicsHeads>,
@@ -866,51 +965,74 @@ fn fit_net<M: Net>(
         let mut sums = [0.0f64; 5];
         let (mut steps, mut correct) = (0usize, 0usize);
         for chunk in order.chunks(cfg.batch_size.max(1)) {
-            let mut batch = Batch::with_parts(train, chunk, parts, device);
-            if cfg.node_dropout > 0.0 {
-                batch.mask = dropout_mask(train, chunk, cfg.node_dropout, &mut rng, device);
-            }
-            let w = normalized_weights(chunk, train, &weights, device);
-            let out = model.output(&batch);
-            let pred = out.logits.clone().argmax(1).into_data();
-            correct += pred
-                .iter::<i64>()
-                .zip(chunk)
-                .filter(|(p, &k)| *p == train.label[k])
-                .count();
-            let ce = weighted_ce(out.logits, batch.labels.clone(), w);
-            let mut loss = ce.clone();
-            sums[1] += f64::from(ce.into_scalar::<f32>());
-            if let Some(ind) = out.indicators {
-                let mse = (ind - batch.indicators.clone()).square().mean();
-                sums[2] += f64::from(mse.clone().into_scalar::<f32>());
-                loss = loss + mse.mul_scalar(cfg.lambda_indicator);
-            }
-            if let (Some(h), Some(states)) = (&heads, out.node_states) {
-                let (sp, th) = h.forward(out.embedding, states);
-                let l_phy = spectral_loss(
-                    sp,
-                    batch.spectra.clone().expect("physics batch"),
-                    batch.mask.clone(),
+            // The batch's replicas: its halves, or the whole batch (see `Net::DATA_PARALLEL`).
+            let shares: Vec<&[usize]> = if !M::DATA_PARALLEL || chunk.len() < 2 {
+                vec![chunk]
+            } else {
+                let (a, b) = chunk.split_at(chunk.len().div_ceil(2));
+                vec![a, b]
+            };
+            // Class weights normalized over the whole batch; the node dropout drawn in
+            // window order: both as for one replica.
+            let w_all = normalized_weights(chunk, train, &weights);
+            let mut offset = 0;
+            let inputs: Vec<ReplicaInput> = shares
+                .iter()
+                .map(|idx| {
+                    let mut batch = Batch::with_parts(train, idx, parts, device);
+                    if cfg.node_dropout > 0.0 {
+                        batch.mask = dropout_mask(train, idx, cfg.node_dropout, &mut rng, device);
+                    }
+                    let w = w_all[offset..offset + idx.len()].to_vec();
+                    offset += idx.len();
+                    ReplicaInput {
+                        labels: idx.iter().map(|&k| train.label[k]).collect(),
+                        batch,
+                        weights: Tensor::from_data(TensorData::new(w, [idx.len()]), device),
+                        share: idx.len() as f64 / chunk.len() as f64,
+                    }
+                })
+                .collect();
+            let mut inputs = inputs.into_iter();
+            let first = inputs.next().expect("a batch has a replica");
+            let rest: Vec<ReplicaInput> = inputs.collect();
+            let results: Vec<ReplicaResult> = std::thread::scope(|scope| {
+                // Every further replica on its own thread with its own copy of the
+                // parameters (`fork`: same parameter ids, a separate autodiff graph, so
+                // the backward passes run in parallel).
+                let handles: Vec<_> = rest
+                    .into_iter()
+                    .map(|input| {
+                        let m = model.clone().fork(device);
+                        let h = heads.clone().map(|h| h.fork(device));
+                        scope.spawn(move || replica_step(&m, h.as_ref(), input, cfg))
+                    })
+                    .collect();
+                let mut out = vec![replica_step(&model, heads.as_ref(), first, cfg)];
+                out.extend(
+                    handles
+                        .into_iter()
+                        .map(|h| h.join().expect("a replica thread panicked")),
                 );
-                let l_map = theta_loss(
-                    th,
-                    batch.theta.clone().expect("physics batch"),
-                    batch.theta_known.clone().expect("physics batch"),
-                );
-                sums[3] += f64::from(l_phy.clone().into_scalar::<f32>());
-                sums[4] += f64::from(l_map.clone().into_scalar::<f32>());
-                loss = loss + l_phy.mul_scalar(cfg.lambda_phy) + l_map.mul_scalar(cfg.lambda_map);
+                out
+            });
+            let mut acc_model = GradientsAccumulator::<M>::new();
+            let mut acc_heads = GradientsAccumulator::<PhysicsHeads>::new();
+            for r in results {
+                for (s, v) in sums.iter_mut().zip(r.sums) {
+                    *s += v;
+                }
+                correct += r.correct;
+                acc_model.accumulate(&model, r.model_grads);
+                if let (Some(h), Some(g)) = (&heads, r.heads_grads) {
+                    acc_heads.accumulate(h, g);
+                }
             }
-            sums[0] += f64::from(loss.clone().into_scalar::<f32>());
             steps += 1;
-            let mut grads = loss.backward();
             let lr = cfg.learning_rate_at(global_step, total_steps);
-            let g_model = GradientsParams::from_module(&mut grads, &model);
-            model = optim.step(lr, model, g_model);
+            model = optim.step(lr, model, acc_model.grads());
             if let Some(h) = heads.take() {
-                let g_heads = GradientsParams::from_module(&mut grads, &h);
-                heads = Some(optim.step(lr, h, g_heads));
+                heads = Some(optim.step(lr, h, acc_heads.grads()));
             }
             global_step += 1;
         }
@@ -1819,6 +1941,61 @@ mod tests {
             test: tiny_dataset(16, 2),
             mask_counts: Default::default(),
             featurize_seconds: 0.0,
+        }
+    }
+
+    /// Two replicas (halves of a batch, each with its own parameter copy) give the
+    /// gradient and the loss of the whole batch (CE + indicator terms: exact up to f32
+    /// rounding).
+    #[test]
+    fn two_replicas_give_the_batch_gradient() {
+        let data = tiny_protocol();
+        let cfg = TrainConfig::new().with_hidden(8).with_compressed(4);
+        let device = Device::flex().autodiff();
+        device.seed(3);
+        let model = cfg.model_config(2).init(&device);
+        let ds = &data.train;
+        let chunk: Vec<usize> = (0..16).collect();
+        let w_all = normalized_weights(&chunk, ds, &class_weights(&ds.label, 2));
+        let input = |idx: &[usize], off: usize| ReplicaInput {
+            batch: Batch::new(ds, idx, &device),
+            labels: idx.iter().map(|&k| ds.label[k]).collect(),
+            weights: Tensor::from_data(
+                TensorData::new(w_all[off..off + idx.len()].to_vec(), [idx.len()]),
+                &device,
+            ),
+            share: idx.len() as f64 / chunk.len() as f64,
+        };
+        let whole = replica_step(&model, None, input(&chunk, 0), &cfg);
+        let a = replica_step(
+            &model.clone().fork(&device),
+            None,
+            input(&chunk[..8], 0),
+            &cfg,
+        );
+        let b = replica_step(
+            &model.clone().fork(&device),
+            None,
+            input(&chunk[8..], 8),
+            &cfg,
+        );
+        assert!((a.sums[0] + b.sums[0] - whole.sums[0]).abs() < 1e-5 * whole.sums[0].abs());
+        assert_eq!(a.correct + b.correct, whole.correct);
+        let mut acc = GradientsAccumulator::<DsStgat>::new();
+        acc.accumulate(&model, a.model_grads);
+        acc.accumulate(&model, b.model_grads);
+        let split = acc.grads();
+        for id in [model.embed.weight.id, model.gru.hidden_n.weight.id] {
+            let g = |gp: &GradientsParams| -> Vec<f32> {
+                gp.get::<2>(id).unwrap().into_data().try_into_vec().unwrap()
+            };
+            let (g1, g2) = (g(&whole.model_grads), g(&split));
+            let scale = g1.iter().fold(0.0f32, |m, v| m.max(v.abs()));
+            let diff = g1
+                .iter()
+                .zip(&g2)
+                .fold(0.0f32, |m, (x, y)| m.max((x - y).abs()));
+            assert!(scale > 0.0 && diff <= 1e-4 * scale, "{diff} of {scale}");
         }
     }
 
