@@ -5,7 +5,7 @@
 #   e.g. bash scripts/dev-sweep.sh BAND_SHARE_FLOOR "1e-4 1e-3 3e-3 1e-2 3e-2" "42 7"
 #
 # For each value: set `pub const CONSTANT: f32 = V;` in SRC (default
-# core/src/features.rs; f64 constants too), build,
+# core/src/features.rs; f64 and usize constants too), build,
 # train the DS-STGAT on `time-block-dev` and `cross-load-dev` for each seed, and print
 # one line per run: clean accuracy and the noise curve (10 … −4 dB). The file is put
 # back as it was at the end. The test sides of `time-block` and `cross-load` are never
@@ -17,8 +17,8 @@ values=$2
 seeds=${3:-42}
 data=${DATA:-../shared/data/cwru}
 src=${SRC:-core/src/features.rs}
-ty=$(sed -n "s/^pub const $const: \(f32\|f64\) = .*/\1/p" "$src")
-[ -n "$ty" ] || { echo "no f32/f64 constant $const in $src" >&2; exit 1; }
+ty=$(sed -n "s/^pub const $const: \(f32\|f64\|usize\) = .*/\1/p" "$src")
+[ -n "$ty" ] || { echo "no f32/f64/usize constant $const in $src" >&2; exit 1; }
 cp "$src" "$src.sweep-orig"
 trap 'mv "$src.sweep-orig" "$src"' EXIT
 out=out/dev-sweep/$const
