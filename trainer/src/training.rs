@@ -81,9 +81,6 @@ use pumptwin_core::graph::GraphConfig;
 /// Architecture name of the DS-STGAT in reports.
 pub const ARCH: &str = "dsstgat";
 
-/// Default of [`TrainConfig::swa_epochs`].
-pub const SWA_EPOCHS: usize = 0;
-
 /// The architectures `pumptwin train --arch` builds (paper §6.3.1 and WDCNN).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum Arch {
@@ -186,10 +183,6 @@ pub struct TrainConfig {
     /// Epochs of pre-training on the simulated windows (eq. 9).
     #[config(default = 15)]
     pub pretrain_epochs: usize,
-    /// The saved weights are the average of the weights after each of the last this
-    /// many epochs (stochastic weight averaging; 0 or 1: the last epoch's weights).
-    #[config(default = "SWA_EPOCHS")]
-    pub swa_epochs: usize,
     /// Graph prior `P`, `N·N` row-major (empty: the uniform prior). Filled in by
     /// `train` from the physics embedding.
     #[config(default = "Vec::new()")]
@@ -966,7 +959,6 @@ fn fit_net<M: Net>(
     let steps_per_epoch = train.len().div_ceil(cfg.batch_size.max(1));
     let total_steps = steps_per_epoch * cfg.epochs;
     let mut global_step = 0usize;
-    let (mut swa_model, mut swa_heads) = (WeightAverage::default(), WeightAverage::default());
     for epoch in 1..=cfg.epochs {
         let t0 = Instant::now();
         shuffle(&mut order, &mut rng);
@@ -1044,12 +1036,6 @@ fn fit_net<M: Net>(
             }
             global_step += 1;
         }
-        if cfg.swa_epochs > 1 && epoch + cfg.swa_epochs > cfg.epochs {
-            swa_model.add(&model);
-            if let Some(h) = &heads {
-                swa_heads.add(h);
-            }
-        }
         let seconds = t0.elapsed().as_secs_f64();
         let test_accuracy = monitor(&model, &heads);
         let steps_f = steps.max(1) as f64;
@@ -1067,76 +1053,7 @@ fn fit_net<M: Net>(
         progress(&stats);
         history.push(stats);
     }
-    let model = swa_model.apply(model);
-    let heads = heads.map(|h| swa_heads.apply(h));
     (model, heads, history)
-}
-
-/// Running average of a module's float parameters over the epochs it is given
-/// (stochastic weight averaging, Izmailov et al. 2018), kept in f64 on the host.
-#[derive(Debug, Default)]
-struct WeightAverage {
-    /// Sum of each parameter's values, by parameter id.
-    sums: std::collections::BTreeMap<burn::module::ParamId, Vec<f64>>,
-    /// Modules added.
-    count: usize,
-}
-
-impl WeightAverage {
-    /// Add the module's current parameters.
-    fn add<M: Module>(&mut self, module: &M) {
-        module.visit(self);
-        self.count += 1;
-    }
-
-    /// The module with its parameters replaced by the averages (unchanged when fewer
-    /// than two were added).
-    fn apply<M: Module>(&self, module: M) -> M {
-        if self.count < 2 {
-            return module;
-        }
-        module.map(&mut AverageWriter(self))
-    }
-}
-
-impl burn::module::ModuleVisitor for WeightAverage {
-    fn visit_float<const D: usize>(&mut self, param: &burn::module::Param<Tensor<D>>) {
-        let Ok(values) = param.val().into_data().convert::<f32>().try_into_vec::<f32>() else {
-            return;
-        };
-        let sum = self
-            .sums
-            .entry(param.id)
-            .or_insert_with(|| vec![0.0; values.len()]);
-        for (s, v) in sum.iter_mut().zip(values) {
-            *s += f64::from(v);
-        }
-    }
-}
-
-/// Writes a [`WeightAverage`]'s averages into a module.
-struct AverageWriter<'a>(&'a WeightAverage);
-
-impl burn::module::ModuleMapper for AverageWriter<'_> {
-    fn map_float<const D: usize>(
-        &mut self,
-        param: burn::module::Param<Tensor<D>>,
-    ) -> burn::module::Param<Tensor<D>> {
-        let Some(sum) = self.0.sums.get(&param.id) else {
-            return param;
-        };
-        let n = self.0.count as f64;
-        let avg: Vec<f32> = sum.iter().map(|s| (s / n) as f32).collect();
-        param.map(|t| {
-            let grad = t.is_require_grad();
-            let out = Tensor::<D>::from_data(TensorData::new(avg, t.shape()), &t.device());
-            if grad {
-                out.require_grad()
-            } else {
-                out
-            }
-        })
-    }
 }
 
 /// What the physics embedding (eq. 9) gives a training run.
@@ -1229,7 +1146,6 @@ pub fn train<const N: usize>(
                 // fault hypothesis on simulated windows first.
                 let pre_cfg = TrainConfig {
                     epochs: cfg.pretrain_epochs,
-                    swa_epochs: 0,
                     class_weighted: false,
                     node_dropout: cfg.node_dropout,
                     ..cfg.clone()
@@ -1439,20 +1355,22 @@ pub fn parse_protocol(name: &str) -> Result<Protocol> {
 }
 
 /// A `config.json`. A key the file lacks (it was written before that setting
-/// existed) takes the value that reproduces such a run: `nodes` = `measured`,
-/// `swa_epochs` = 0; any other missing key its default.
+/// existed) takes the value that reproduces such a run: `nodes` = `measured`; any
+/// other missing key its default.
 pub fn read_config(path: &Path) -> Result<TrainConfig> {
     let text =
         std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
     let value: serde_json::Value =
         serde_json::from_str(&text).with_context(|| format!("{} is not JSON", path.display()))?;
     let serde_json::Value::Object(file) = value else {
-        bail!("{} is not a training config (not a JSON object)", path.display());
+        bail!(
+            "{} is not a training config (not a JSON object)",
+            path.display()
+        );
     };
     let mut merged = serde_json::to_value(TrainConfig::new())?;
     if let Some(obj) = merged.as_object_mut() {
         obj.insert("nodes".into(), "measured".into());
-        obj.insert("swa_epochs".into(), 0.into());
         obj.extend(file);
     }
     serde_json::from_value(merged)
