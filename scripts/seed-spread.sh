@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # How much the DS-STGAT figures move with the seed alone.
 #
-#   bash scripts/seed-spread.sh ["SEEDS"] ["PROTOCOLS"] ["ABLATIONS"]
-#   default: seeds "42 7 1", protocols "time-block cross-load", every ablation
+#   bash scripts/seed-spread.sh ["SEEDS"] ["PROTOCOLS"] ["ABLATIONS"] [NODES]
+#   default: seeds "42 7 1", protocols "time-block cross-load", every ablation,
+#   nodes "measured" ("derived": with the derived temperature/pressure nodes)
 #
 # Trains each (ablation, protocol, seed) into out/seeds/ (a run whose metrics.json
 # exists is reused) and prints one line per (ablation, protocol): clean accuracy,
@@ -12,17 +13,20 @@ cd "$(dirname "$0")/.."
 seeds=${1:-"42 7 1"}
 protocols=${2:-"time-block cross-load"}
 ablations=${3:-"none no-coadapt no-physics static-graph"}
+nodes=${4:-measured}
 data=${DATA:-../shared/data/cwru}
+suffix=""
+[ "$nodes" = measured ] || suffix="+$nodes-nodes"
 cargo build --release -q -p pumptwin-trainer --bin pumptwin
 for a in $ablations; do
   for p in $protocols; do
     for s in $seeds; do
-      dir=out/seeds/$a-$p-$s
+      dir=out/seeds/$a$suffix-$p-$s
       [ -f "$dir/metrics.json" ] && continue
       mkdir -p "$dir"
-      ./target/release/pumptwin train --data "$data" --protocol "$p" --ablation "$a" --seed "$s" --out "$dir" >"$dir/train.log" 2>&1
+      ./target/release/pumptwin train --data "$data" --protocol "$p" --ablation "$a" --nodes "$nodes" --seed "$s" --out "$dir" >"$dir/train.log" 2>&1
     done
-    python3 - "$a" "$p" $seeds <<'PY'
+    python3 - "$a$suffix" "$p" $seeds <<'PY'
 import json, sys
 a, p, seeds = sys.argv[1], sys.argv[2], sys.argv[3:]
 rows = []
@@ -36,4 +40,4 @@ def f(k):
 print(f"| {a} | {p} | {len(rows)} | {f(0)} | {f(1)} | {f(2)} |")
 PY
   done
-done | tee out/seeds/summary.md
+done | tee "out/seeds/summary$suffix.md"

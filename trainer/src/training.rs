@@ -81,6 +81,9 @@ use pumptwin_core::graph::GraphConfig;
 /// Architecture name of the DS-STGAT in reports.
 pub const ARCH: &str = "dsstgat";
 
+/// Default of [`TrainConfig::pretrain_epochs`].
+pub const PRETRAIN_EPOCHS: usize = 15;
+
 /// The architectures `pumptwin train --arch` builds (paper §6.3.1 and WDCNN).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum Arch {
@@ -181,7 +184,7 @@ pub struct TrainConfig {
     #[config(default = 0.1)]
     pub lambda_map: f64,
     /// Epochs of pre-training on the simulated windows (eq. 9).
-    #[config(default = 15)]
+    #[config(default = "PRETRAIN_EPOCHS")]
     pub pretrain_epochs: usize,
     /// Graph prior `P`, `N·N` row-major (empty: the uniform prior). Filled in by
     /// `train` from the physics embedding.
