@@ -84,14 +84,6 @@ impl NodeSet {
             Self::Derived => N_DERIVED_NODES,
         }
     }
-
-    /// Node names, in order.
-    pub fn names(self) -> &'static [&'static str] {
-        match self {
-            Self::Measured => &NODES,
-            Self::Derived => &DERIVED_NODES,
-        }
-    }
 }
 /// Graph steps per window (`T`).
 pub const STEPS: usize = SEGMENTS;

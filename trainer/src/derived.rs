@@ -31,7 +31,10 @@
 //! carry training-side samples into the first test window through its state.
 //!
 //! A window whose DE channel is absent has no derived nodes (masked and counted as a
-//! missing channel, as any absent sensor).
+//! missing channel, as any absent sensor). Everything downstream treats them as nodes
+//! like any other: features, graphs, node dropout, the indicator targets of eq. 13
+//! (their "adjacent-node energy difference" then compares DE with the mean RMS of all
+//! other present nodes, the derived ones included).
 
 use crate::data::record::{Channel, Recording};
 
