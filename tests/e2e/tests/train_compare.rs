@@ -119,35 +119,27 @@ fn train_eval_predict_compare_on_cwru() {
         assert_eq!(e["accuracy"], m["accuracy"], "{name}");
         assert_eq!(e["confusion"], m["confusion"], "{name}");
     }
-    // predict runs a raw-signal baseline too.
+    // predict runs a raw-signal baseline too, and a derived-node model (its extra nodes
+    // computed from the record's DE).
     let p_out = tmp.join("predict.json");
-    run_predict(&PredictArgs {
-        record: RecordArgs {
-            input: root().join("tests/data/cwru105_1s.csv"),
-            fs: Some(12_000.0),
-            rpm: Some(1797.0),
-            bearing: "cwru-6205-de".into(),
-        },
-        model: runs.join("time-block/wdcnn/model.bpk"),
-        out: Some(p_out.clone()),
-    })
-    .unwrap();
-    let p = json(&p_out);
+    let predict = |model: &str| {
+        run_predict(&PredictArgs {
+            record: RecordArgs {
+                input: root().join("tests/data/cwru105_1s.csv"),
+                fs: Some(12_000.0),
+                rpm: Some(1797.0),
+                bearing: "cwru-6205-de".into(),
+            },
+            model: runs.join("time-block").join(model).join("model.bpk"),
+            out: Some(p_out.clone()),
+        })
+        .unwrap();
+        json(&p_out)
+    };
+    let p = predict("wdcnn");
     assert_eq!(p["arch"], "wdcnn");
     assert!(!p["windows"].as_array().unwrap().is_empty());
-    // … and a derived-node model, its extra nodes computed from the record's DE.
-    run_predict(&PredictArgs {
-        record: RecordArgs {
-            input: root().join("tests/data/cwru105_1s.csv"),
-            fs: Some(12_000.0),
-            rpm: Some(1797.0),
-            bearing: "cwru-6205-de".into(),
-        },
-        model: runs.join("time-block/dsstgat+derived-nodes/model.bpk"),
-        out: Some(p_out.clone()),
-    })
-    .unwrap();
-    let p = json(&p_out);
+    let p = predict("dsstgat+derived-nodes");
     assert_eq!(p["arch"], "dsstgat+derived-nodes");
     let windows = p["windows"].as_array().unwrap();
     assert!(!windows.is_empty());
