@@ -6,7 +6,9 @@
 #
 # For each value: set `pub const CONSTANT: f32 = V;` in SRC (default
 # core/src/features.rs; f64 and usize constants too), build,
-# train the DS-STGAT on `time-block-dev` and `cross-load-dev` for each seed, and print
+# train the DS-STGAT on the development protocols (default `time-block-dev` and
+# `cross-load-dev`; PROTOCOLS="..." to change, e.g. add `cross-load-dev0`, the harder
+# load shift) for each seed, and print
 # one line per run: clean accuracy and the noise curve (10 … −4 dB). The file is put
 # back as it was at the end. The test sides of `time-block` and `cross-load` are never
 # read, so the value chosen here leaves their figures honest.
@@ -15,6 +17,7 @@ cd "$(dirname "$0")/.."
 const=$1
 values=$2
 seeds=${3:-42}
+protocols=${PROTOCOLS:-"time-block-dev cross-load-dev"}
 data=${DATA:-../shared/data/cwru}
 src=${SRC:-core/src/features.rs}
 ty=$(sed -n "s/^pub const $const: \(f32\|f64\|usize\) = .*/\1/p" "$src")
@@ -27,7 +30,7 @@ for v in $values; do
   sed -i "s/^pub const $const: $ty = .*;/pub const $const: $ty = $v;/" "$src"
   cargo build --release -q -p pumptwin-trainer --bin pumptwin
   for seed in $seeds; do
-    for p in time-block-dev cross-load-dev; do
+    for p in $protocols; do
       dir=$out/$v-$p-$seed
       ./target/release/pumptwin train --data "$data" --protocol "$p" --seed "$seed" --out "$dir" >"$dir.log" 2>&1
       python3 - "$dir/metrics.json" "$const=$v" "$p" "$seed" <<'PY'
