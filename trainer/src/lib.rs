@@ -21,3 +21,13 @@ pub mod predict;
 pub mod sim;
 pub mod training;
 pub mod twin;
+
+/// Tests that seed burn's device random stream (and draw from it: initialization,
+/// training) hold this lock: the stream is one per process, and two such tests running
+/// at once would draw from each other's seed (a test once failed that way in CI).
+#[cfg(test)]
+pub(crate) fn device_rng_lock() -> std::sync::MutexGuard<'static, ()> {
+    static LOCK: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    LOCK.lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
+}

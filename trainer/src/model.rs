@@ -338,6 +338,7 @@ mod tests {
 
     #[test]
     fn gat_ignores_absent_nodes() {
+        let _rng = crate::device_rng_lock();
         let device = Device::flex();
         device.seed(3);
         let gat = GatLayer::new(5, 4, &device);
@@ -381,6 +382,7 @@ mod tests {
 
     #[test]
     fn model_output_shapes_and_mask_invariance() {
+        let _rng = crate::device_rng_lock();
         let device = Device::flex();
         device.seed(5);
         let cfg = DsStgatConfig::new(6, 10).with_hidden(8).with_compressed(4);

@@ -1960,6 +1960,7 @@ mod tests {
     /// rounding).
     #[test]
     fn two_replicas_give_the_batch_gradient() {
+        let _rng = crate::device_rng_lock();
         let data = tiny_protocol();
         let cfg = TrainConfig::new().with_hidden(8).with_compressed(4);
         let device = Device::flex().autodiff();
@@ -2018,6 +2019,7 @@ mod tests {
 
     #[test]
     fn one_epoch_lowers_the_loss() {
+        let _rng = crate::device_rng_lock();
         let data = tiny_protocol();
         let cfg = TrainConfig::new()
             .with_epochs(1)
@@ -2071,6 +2073,7 @@ mod tests {
     /// `valid()` as the trained one after `valid()`.
     #[test]
     fn batch_norm_network_survives_save_and_load() {
+        let _rng = crate::device_rng_lock();
         let mut data = tiny_protocol();
         let mut rng = Xoshiro128pp::seed_from_u64(9);
         for ds in [&mut data.train, &mut data.test] {
