@@ -18,7 +18,7 @@ use serde::Serialize;
 use crate::data::windows::Protocol;
 use crate::dataset::NodeSet;
 use crate::plot::{draw_legend, register_font};
-use crate::training::{run_train, value_name, Ablation, Arch, TrainArgs, METRICS_FILE};
+use crate::training::{run_name, run_train, value_name, Ablation, Arch, TrainArgs, METRICS_FILE};
 
 /// `pumptwin compare`.
 #[derive(Debug, Clone, clap::Args)]
@@ -63,18 +63,14 @@ pub const MODELS: [(Arch, Ablation); 8] = [
 pub const SEPARATE: [(Arch, Ablation, NodeSet); 1] =
     [(Arch::DsStgat, Ablation::None, NodeSet::Derived)];
 
-/// The run name of a model (`dsstgat`, `dsstgat-no-coadapt`, `wdcnn`, …), with
-/// `+derived-nodes` for the derived-node layout (as `TrainConfig::report_name`).
+/// The run name of a model (`dsstgat`, `dsstgat-no-coadapt`, `wdcnn`,
+/// `dsstgat+derived-nodes`, …): [`run_name`], as its `metrics.json` reports it.
 pub fn model_name(arch: Arch, ablation: Ablation, nodes: NodeSet) -> String {
-    let mut name = if ablation == Ablation::None {
-        value_name(&arch)
-    } else {
-        format!("{}-{}", value_name(&arch), value_name(&ablation))
-    };
-    if nodes == NodeSet::Derived {
-        name.push_str("+derived-nodes");
-    }
-    name
+    run_name(
+        &value_name(&arch),
+        &value_name(&ablation),
+        &value_name(&nodes),
+    )
 }
 
 /// One row of the table.

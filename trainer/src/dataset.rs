@@ -238,7 +238,7 @@ pub fn featurize_windows<const N: usize>(
     let mut out: Vec<Option<WindowFeatures<N>>> = vec![None; windows.len()];
     let rw = N * WINDOW;
     let mut raw = vec![0.0f32; windows.len() * rw];
-    let derive = nodes.iter().any(|n| crate::derived::is_derived(n));
+    let derive = crate::derived::any_derived(nodes);
     for record in records {
         let r = &corpus.records[record];
         let cfg = feature_config(r.rec.fs_hz, r.shaft_hz, orders);

@@ -57,6 +57,12 @@ pub fn is_derived(name: &str) -> bool {
     name == TEMP || name == PRES
 }
 
+/// Whether a node layout has any derived node (its windows then need
+/// [`append_channels`]).
+pub fn any_derived(nodes: &[&str]) -> bool {
+    nodes.iter().any(|n| is_derived(n))
+}
+
 /// One-pole low-pass with its state started at the mean of the first `1/(2π·fc)`
 /// seconds of the input.
 fn lowpass(x: &[f32], fs_hz: f32, corner_hz: f32) -> Vec<f32> {

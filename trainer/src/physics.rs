@@ -185,7 +185,7 @@ impl<const N: usize> PhysicsEmbedding<N> {
     /// # Errors
     /// A simulation or preprocessing failure (they do not happen for these settings).
     pub fn build_for(rpms: &[f32], seed: u64, nodes: &[&'static str; N]) -> anyhow::Result<Self> {
-        let derive = nodes.iter().any(|n| crate::derived::is_derived(n));
+        let derive = crate::derived::any_derived(nodes);
         let mut speeds: Vec<f32> = rpms.to_vec();
         speeds.sort_by(f32::total_cmp);
         speeds.dedup_by(|a, b| (*a - *b).abs() < 20.0);

@@ -170,7 +170,7 @@ fn predict_with<const N: usize>(
         starts,
     } = *input;
     // Derived nodes come from each window's own samples: the windows end to end.
-    let derive = nodes.iter().any(|n| crate::derived::is_derived(n));
+    let derive = crate::derived::any_derived(&nodes);
     let scratch;
     let (src, src_starts): (&crate::data::record::Recording, Vec<usize>) = if derive {
         scratch = windows_end_to_end(rec, starts, true);

@@ -81,6 +81,21 @@ use pumptwin_core::graph::GraphConfig;
 /// Architecture name of the DS-STGAT in reports.
 pub const ARCH: &str = "dsstgat";
 
+/// The name of a run in reports and in `compare`'s run folders: the architecture, with
+/// the ablation if any (`dsstgat-no-coadapt`), and `+derived-nodes` with the
+/// derived-node layout.
+pub fn run_name(arch: &str, ablation: &str, nodes: &str) -> String {
+    let mut name = if ablation == "none" {
+        arch.to_string()
+    } else {
+        format!("{arch}-{ablation}")
+    };
+    if nodes == "derived" {
+        name.push_str("+derived-nodes");
+    }
+    name
+}
+
 /// Default of [`TrainConfig::pretrain_epochs`].
 pub const PRETRAIN_EPOCHS: usize = 15;
 
@@ -235,18 +250,9 @@ impl TrainConfig {
             .map_err(|_| anyhow::anyhow!("unknown node layout {:?}", self.nodes))
     }
 
-    /// The name written to reports: the architecture, with the ablation if any, and
-    /// `+derived-nodes` with the derived-node layout.
+    /// The name written to reports ([`run_name`]).
     pub fn report_name(&self) -> String {
-        let mut name = if self.ablation == "none" {
-            self.arch.clone()
-        } else {
-            format!("{}-{}", self.arch, self.ablation)
-        };
-        if self.nodes == "derived" {
-            name.push_str("+derived-nodes");
-        }
-        name
+        run_name(&self.arch, &self.ablation, &self.nodes)
     }
 
     /// Whether eq. 9 applies (DS-STGAT, not `no-physics`).
@@ -1357,9 +1363,9 @@ pub fn parse_protocol(name: &str) -> Result<Protocol> {
         .map_err(|e| anyhow::anyhow!("unknown protocol {name:?}: {e}"))
 }
 
-/// A `config.json`. A key the file lacks (it was written before that setting
-/// existed) takes the value that reproduces such a run: `nodes` = `measured`; any
-/// other missing key its default.
+/// A `config.json`, read over the defaults: a key the file lacks (it was written
+/// before that setting existed) takes its default, which reproduces such a run
+/// (`nodes` = `measured`).
 pub fn read_config(path: &Path) -> Result<TrainConfig> {
     let text =
         std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
@@ -1373,7 +1379,6 @@ pub fn read_config(path: &Path) -> Result<TrainConfig> {
     };
     let mut merged = serde_json::to_value(TrainConfig::new())?;
     if let Some(obj) = merged.as_object_mut() {
-        obj.insert("nodes".into(), "measured".into());
         obj.extend(file);
     }
     serde_json::from_value(merged)
