@@ -18,6 +18,7 @@ data=${DATA:-../shared/data/cwru}
 suffix=""
 [ "$nodes" = measured ] || suffix="+$nodes-nodes"
 cargo build --release -q -p pumptwin-trainer --bin pumptwin
+mkdir -p out/seeds
 for a in $ablations; do
   for p in $protocols; do
     for s in $seeds; do

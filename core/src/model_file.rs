@@ -1,12 +1,12 @@
 //! The model file: one postcard-encoded file with everything the edge needs to run a
 //! trained DS-STGAT, decoded without allocation into fixed-capacity buffers.
 //!
-//! # Layout (format version 3)
+//! # Layout (format version 4)
 //!
 //! | offset | bytes | field | encoding |
 //! |---|---|---|---|
 //! | 0 | 8 | magic [`MAGIC`] = `PTWINMDL` | ASCII |
-//! | 8 | 2 | format version [`FORMAT_VERSION`] = 3 | u16, little-endian |
+//! | 8 | 2 | format version [`FORMAT_VERSION`] = 4 | u16, little-endian |
 //! | 10 | 4 | payload length `L` | u32, little-endian |
 //! | 14 | `L` | payload: a [`ModelFile`] | postcard 1.x |
 //! | 14 + `L` | 4 | CRC-32 of the payload (see [`crc32`]) | u32, little-endian |
@@ -115,6 +115,10 @@
 //! but its own rather than guess. Version 3: node features went from 20 to 32 (the
 //! four linear band shares became sixteen log band shares), so a version-2 file's
 //! normalization and embedding no longer fit the features the core computes.
+//! Version 4: node features went from 32 to 27 (the broadband shape statistics —
+//! crest, kurtosis, skewness, shape and impulse factors — left the node features,
+//! `crate::features`), so a version-3 file means five features the core no longer
+//! computes.
 
 use heapless::{String, Vec};
 use serde::{Deserialize, Serialize};
@@ -133,7 +137,7 @@ use crate::simulator::BearingParams;
 /// The first 8 bytes of every model file.
 pub const MAGIC: [u8; 8] = *b"PTWINMDL";
 /// The format version this core writes and reads.
-pub const FORMAT_VERSION: u16 = 3;
+pub const FORMAT_VERSION: u16 = 4;
 /// Bytes before the payload: magic, version, payload length.
 pub const HEADER_LEN: usize = 14;
 /// Bytes after the payload: the CRC-32.
@@ -2095,7 +2099,7 @@ mod tests {
         assert_eq!(decode(&f), Err(Error::ModelMagic));
 
         let mut f = file.clone();
-        for old in [1u16, 2, 4] {
+        for old in [1u16, 2, 3, 5] {
             f[8..10].copy_from_slice(&old.to_le_bytes());
             assert_eq!(
                 decode(&f),

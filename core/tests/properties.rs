@@ -286,7 +286,7 @@ proptest! {
     /// present: `NothingPresent`.
     #[test]
     fn the_int8_model_answers_or_errs_for_any_input(
-        x in prop::collection::vec(prop::array::uniform3(prop::array::uniform32(
+        x in prop::collection::vec(prop::array::uniform3(prop::array::uniform::<_, FEATURE_DIM>(
             prop_oneof![-8.0f32..8.0, Just(1e30f32), Just(-1e30f32)])), 8..=8),
         mask in prop::array::uniform3(any::<bool>()),
         bad_at in (0usize..8, 0usize..3, 0..FEATURE_DIM),

@@ -71,8 +71,8 @@ use crate::explain::{nearest_kinematic, Explanation, PEAK_BAND_HZ};
 use crate::ring::SampleRing;
 use crate::sensor_map::{Channel, LayoutError, Machine, SensorMap, MAX_SAMPLES_PER_FRAME};
 use pumptwin_core::features::{
-    node_features, peak_frequency, FeatureConfig, FeatureScratch, TimeStats, FEATURE_DIM,
-    FEATURE_NAMES,
+    feature_index, node_features, peak_frequency, FeatureConfig, FeatureScratch, TimeStats,
+    FEATURE_DIM,
 };
 use pumptwin_core::fir::{FirLowpass, BAND_LIMIT_TAPS, MAX_CUTOFF_FRACTION};
 use pumptwin_core::simulator::BearingParams;
@@ -88,34 +88,6 @@ pub const SEGMENTS: usize = pumptwin_core::features::STANDARD_SEGMENTS;
 /// Ring size per channel.
 pub const RING: usize = 2 * WINDOW;
 const _: () = assert!(RING >= WINDOW + MAX_SAMPLES_PER_FRAME && HOP >= MAX_SAMPLES_PER_FRAME);
-
-const fn str_eq(a: &str, b: &str) -> bool {
-    let (a, b) = (a.as_bytes(), b.as_bytes());
-    if a.len() != b.len() {
-        return false;
-    }
-    let mut i = 0;
-    while i < a.len() {
-        if a[i] != b[i] {
-            return false;
-        }
-        i += 1;
-    }
-    true
-}
-
-/// Index of a feature in [`FEATURE_NAMES`]; a name the core does not have fails the
-/// build (every use is a `const`).
-pub const fn feature_index(name: &str) -> usize {
-    let mut i = 0;
-    while i < FEATURE_NAMES.len() {
-        if str_eq(FEATURE_NAMES[i], name) {
-            return i;
-        }
-        i += 1;
-    }
-    panic!("not a name in pumptwin_core::features::FEATURE_NAMES");
-}
 
 /// `env_shaft_db` in a feature row.
 pub const ENV_SHAFT_DB: usize = feature_index("env_shaft_db");
@@ -835,6 +807,7 @@ fn analyse(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use pumptwin_core::features::FEATURE_NAMES;
 
     #[test]
     fn feature_indices_name_the_right_features() {

@@ -19,7 +19,7 @@
 //!
 //! # Shapes (per side, `W` windows, row-major)
 //! - `x`: `[W, T, N, F]` normalized node features (`T` = 8 steps, `N` = 3 nodes
-//!   DE/FE/BA, `F` = 32 features); an absent node's rows are 0
+//!   DE/FE/BA, `F` = 27 features); an absent node's rows are 0
 //! - `adj`: `[W, T, N, N]` the core's normalized adjacency `Â_t` (row `i` = neighbours
 //!   of node `i`; an absent node keeps only its self-loop)
 //! - `mask`: `[W, N]` present nodes (the normal record 97 has no BA channel)
@@ -38,7 +38,9 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use pumptwin_core::bearing::BearingGeometry;
-use pumptwin_core::features::{band_share, FeatureNorm, FEATURE_DIM, SPECTRAL_BANDS};
+use pumptwin_core::features::{
+    band_share, feature_index, FeatureNorm, FEATURE_DIM, SPECTRAL_BANDS,
+};
 use pumptwin_core::graph::{Adjacency, GraphConfig};
 use pumptwin_core::rng::Xoshiro128pp;
 
@@ -100,11 +102,11 @@ pub const INDICATOR_NAMES: [&str; N_INDICATORS] = [
 ];
 
 /// Index of `rms` in a feature row.
-const RMS: usize = 1;
-/// Index of `kurtosis` in a feature row.
-const KURTOSIS: usize = 3;
+const RMS: usize = feature_index("rms");
+/// Index of `env_kurtosis` (the impact intensity) in a feature row.
+const ENV_KURTOSIS: usize = feature_index("env_kurtosis");
 /// Index of `band_db_01` (the other band shares follow it).
-const BAND_DB_01: usize = 11;
+const BAND_DB_01: usize = feature_index("band_db_01");
 
 /// Errors building a data set.
 #[non_exhaustive]
@@ -391,7 +393,10 @@ fn noisy_windows(
 /// The four physical indicators (eq. 13's `F`) of one window, unscaled:
 ///
 /// ```text
-/// impact_intensity     = mean over present (t, i) of kurtosis_ti
+/// impact_intensity     = mean over present i of env_kurtosis_i (the kurtosis of the
+///                        node's envelope in the resonance band: the impacts'
+///                        impulsiveness, which broadband noise does not erase as it
+///                        does the broadband kurtosis)
 /// dominant_band_ratio  = mean over present (t, i) of max_b band share_b,ti
 ///                        (the share from its `band_db` feature)
 /// node_energy_diff_db  = mean over t of 20·log10( rms_t,0 / mean_{j≠0 present} rms_t,j )
@@ -414,7 +419,7 @@ pub fn indicator_targets<const N: usize>(
     let mut band = 0.0f64;
     for step in &w.features {
         for &i in &present {
-            kurt += f64::from(step[i][KURTOSIS]);
+            kurt += f64::from(step[i][ENV_KURTOSIS]);
             let bands = &step[i][BAND_DB_01..BAND_DB_01 + SPECTRAL_BANDS];
             band += f64::from(band_share(bands.iter().copied().fold(f32::MIN, f32::max)));
         }
@@ -869,7 +874,7 @@ mod tests {
     #[test]
     fn feature_indices_match_the_core() {
         assert_eq!(FEATURE_NAMES[RMS], "rms");
-        assert_eq!(FEATURE_NAMES[KURTOSIS], "kurtosis");
+        assert_eq!(FEATURE_NAMES[ENV_KURTOSIS], "env_kurtosis");
         assert_eq!(FEATURE_NAMES[BAND_DB_01], "band_db_01");
         assert_eq!(FEATURE_NAMES[BAND_DB_01 + SPECTRAL_BANDS - 1], "band_db_16");
     }
@@ -882,8 +887,8 @@ mod tests {
             mask: NodeMask([true, true, false]),
         };
         for step in w.features.iter_mut() {
-            step[0][KURTOSIS] = 5.0;
-            step[1][KURTOSIS] = 3.0;
+            step[0][ENV_KURTOSIS] = 5.0;
+            step[1][ENV_KURTOSIS] = 3.0;
             step[0][RMS] = 1.0;
             step[1][RMS] = 0.1;
             // Band features are dB shares: the largest bands hold 0.7 and 0.5.
@@ -892,7 +897,7 @@ mod tests {
             step[0][BAND_DB_01 + 2] = band_db(0.7);
             step[1][BAND_DB_01] = band_db(0.5);
             // The absent node's values must not count.
-            step[2][KURTOSIS] = 1000.0;
+            step[2][ENV_KURTOSIS] = 1000.0;
         }
         let mut a = [Adjacency::<N_NODES>::ZERO; STEPS];
         for m in a.iter_mut() {

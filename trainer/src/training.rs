@@ -2023,11 +2023,13 @@ mod tests {
     }
 
     #[test]
-    fn one_epoch_lowers_the_loss() {
+    fn a_few_epochs_lower_the_loss() {
         let _rng = crate::device_rng_lock();
         let data = tiny_protocol();
+        // Five epochs, not one: a single epoch of six steps from a random start moves
+        // the loss by less than its step-to-step wobble (0.731 → 0.734 at F = 27).
         let cfg = TrainConfig::new()
-            .with_epochs(1)
+            .with_epochs(5)
             .with_batch_size(8)
             .with_hidden(8)
             .with_compressed(4)
@@ -2038,7 +2040,7 @@ mod tests {
         let before = mean_loss(&fresh, &data.train, &cfg, 2, &plain);
         let mut log = Vec::new();
         let out = train(&cfg, &data, None, true, &mut |s| log.push(*s)).unwrap();
-        assert_eq!(log.len(), 1);
+        assert_eq!(log.len(), 5);
         let Network::DsStgat(model) = out.network.valid() else {
             panic!("dsstgat expected")
         };
