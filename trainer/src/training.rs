@@ -1694,7 +1694,16 @@ pub fn evaluate_network<const N: usize>(
     device: &Device,
 ) -> Result<(MetricsReport, Inference)> {
     let batch = cfg.eval_batch_size;
-    let predictor = |ds: &Dataset| Ok(infer(net, None, ds, batch, device).classes);
+    // The clean test side once, with the physics heads; the noisy and node-masked
+    // copies without them.
+    let inference = infer(net, heads, &data.test, batch, device);
+    let predictor = |ds: &Dataset| {
+        Ok(if std::ptr::eq(ds, &data.test) {
+            inference.classes.clone()
+        } else {
+            infer(net, None, ds, batch, device).classes
+        })
+    };
     let mut report = evaluate_with(
         &predictor,
         &cfg.report_name(),
@@ -1703,7 +1712,6 @@ pub fn evaluate_network<const N: usize>(
         cfg.seed,
         train_seconds,
     )?;
-    let inference = infer(net, heads, &data.test, batch, device);
     if heads.is_some() && !inference.spectra.is_empty() && data.test.has_signals() {
         let (mut sum, mut n) = (0.0f64, 0usize);
         for (k, (p, t)) in inference
