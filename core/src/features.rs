@@ -35,11 +35,11 @@
 //! (`env_kurtosis`, the lines at the defect frequencies) where the bearing's impacts
 //! stand above the noise. Measured on the development protocols only
 //! (`docs/evaluation-cwru.md`, four seeds, `time-block-dev` and `cross-load-dev0`):
-//! without the five, 0 dB accuracy 89.4 → 96.5 % and −4 dB 65.8 → 76.6 % on
-//! `time-block-dev`, −4 dB 53.8 → 68.0 % on `cross-load-dev0`, higher on every seed;
-//! clean `cross-load-dev0` 91.7 → 87.0 % (one seed of four lower by 25 points). The
-//! edge report still prints kurtosis and crest factor of the whole window
-//! ([`TimeStats`]) for the engineer.
+//! without the five, 0 dB accuracy 89.4 → 96.9 % and −4 dB 65.8 → 83.0 % on
+//! `time-block-dev`, −4 dB 53.8 → 63.9 % on `cross-load-dev0`, higher on every seed;
+//! the price is clean `cross-load-dev0`, 91.7 → 80.2 % (they are among the few
+//! features that do not move with load). The edge report still prints kurtosis and
+//! crest factor of the whole window ([`TimeStats`]) for the engineer.
 
 use crate::bearing::DefectOrders;
 use crate::error::{expect_len, Error, Result};
