@@ -81,8 +81,8 @@ fn main() {
     let [t, n, f] = golden.shape;
     assert_eq!(
         (t, n, f),
-        (8, 3, 27),
-        "the probe is built for T=8, N=3, F=27"
+        (8, 3, 28),
+        "the probe is built for T=8, N=3, F=28"
     );
     let w = &golden.windows[0];
     assert_eq!(w.x.len(), t * n * f);

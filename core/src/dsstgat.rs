@@ -37,7 +37,7 @@
 //! # Memory
 //! [`DsStgat`] is plain data (its size is the sum of its kernels'); [`Scratch`] holds
 //! `T·N·H + 4·N·H + N·F` bytes plus the GAT/GRU scratch (≈ 1.4 KiB for `T = 8`,
-//! `N = 3`, `H = 32`, `F = 27`). Nothing allocates.
+//! `N = 3`, `H = 32`, `F = 28`). Nothing allocates.
 
 use crate::error::{Error, Result};
 use crate::graph::{Adjacency, NodeMask};

@@ -16,6 +16,10 @@
 //!   e(t) = |analytic(bandpass(x))|, E_k = power spectrum of e − mean(e)
 //!   env_<f>_db = 10·log10( Σ_{h=1..2} max_{|ν−h·f|≤tol} E(ν) / (2·median E) )
 //!   for f ∈ {shaft, BPFO, BPFI, BSF}; env_kurtosis = kurtosis of e(t)
+//! shape (whole window, shared by its T rows, on the measured samples):
+//!   kurtosis_nc = sign(κ)·ln(1 + |κ|),  κ = (m4 − 3·m2²) / (m2 − σn²)²
+//!   with σn² the white-noise variance of the compensation's floor
+//!   ([`noise_compensated_kurtosis`])
 //! ```
 //!
 //! Why the envelope features are computed per window, not per segment: a segment of
@@ -65,8 +69,11 @@ pub const SPECTRAL_FEATURES: usize = 3 + SPECTRAL_BANDS;
 pub const BAND_SHARE_FLOOR: f32 = 5e-2;
 /// Number of envelope features.
 pub const ENVELOPE_FEATURES: usize = 5;
+/// Number of whole-window shape features (the noise-compensated kurtosis).
+pub const WINDOW_FEATURES: usize = 1;
 /// Features per node and segment.
-pub const FEATURE_DIM: usize = TIME_FEATURES + SPECTRAL_FEATURES + ENVELOPE_FEATURES;
+pub const FEATURE_DIM: usize =
+    TIME_FEATURES + SPECTRAL_FEATURES + ENVELOPE_FEATURES + WINDOW_FEATURES;
 
 /// Names of the features, in order.
 pub const FEATURE_NAMES: [&str; FEATURE_DIM] = [
@@ -97,6 +104,7 @@ pub const FEATURE_NAMES: [&str; FEATURE_DIM] = [
     "env_bpfi_db",
     "env_bsf_db",
     "env_kurtosis",
+    "kurtosis_nc",
 ];
 
 const fn str_eq(a: &str, b: &str) -> bool {
@@ -137,6 +145,72 @@ pub const ENVELOPE_SLIP: f32 = 0.015;
 
 /// Index of the first envelope feature in a feature row.
 pub const ENVELOPE_OFFSET: usize = TIME_FEATURES + SPECTRAL_FEATURES;
+/// Index of the noise-compensated kurtosis ([`noise_compensated_kurtosis`]) in a row.
+pub const KURTOSIS_NC_INDEX: usize = ENVELOPE_OFFSET + ENVELOPE_FEATURES;
+/// Smallest share of a window's variance [`noise_compensated_kurtosis`] credits to the
+/// machine after the estimated noise is taken out (a noise estimate above 90 % of the
+/// variance is read as 90 %: the cumulant is then divided by at most 100× m2²).
+pub const KURTOSIS_NC_MIN_SIGNAL_SHARE: f64 = 0.1;
+
+/// Excess kurtosis of the machine's part of a window, with white measurement noise of
+/// variance `noise_var` taken out, log-compressed:
+///
+/// ```text
+/// m2, m4 = central moments of x,   c4 = m4 − 3·m2²        (fourth cumulant)
+/// s2     = max(m2 − σn², 0.1·m2)                           (the machine's variance)
+/// κ      = c4 / s2²,                 value = sign(κ)·ln(1 + |κ|)
+/// ```
+///
+/// Why this form: cumulants of independent signals add and a Gaussian's fourth
+/// cumulant is zero, so additive white Gaussian noise leaves `c4` unbiased (it only
+/// widens its spread) while it inflates `m2`. The plain kurtosis `m4/m2²` therefore
+/// falls towards 3 under noise — its excess shrinks fourfold at 0 dB SNR, which is why
+/// the per-segment shape statistics left the node features — whereas `c4/(m2 − σn²)²`
+/// keeps its centre. `σn²` is read from the minimum-statistics floor `N` that
+/// [`subtract_noise_floor`] subtracts: white noise of variance σ² has `E|X_k|² = n·σ²`
+/// for an unnormalized FFT of `n` samples, so `σn² = N/n` (0 without compensation).
+/// On a clean record the floor is the record's own background, the same in training
+/// and in service. It is computed over the whole window (2048 samples) and shared by
+/// the window's rows because the fourth moment of a 256-sample segment is too noisy
+/// (the relative spread of `c4` goes as 1/√n). The logarithm keeps inner-race windows
+/// (κ of tens) and ball windows (κ near 0) on one scale for the z-scoring. It is one
+/// of the few shape features that do not move with load (`docs/evaluation-cwru.md`).
+///
+/// # Errors
+/// [`Error::NonFinite`] for NaN/∞ samples or a non-finite `noise_var`,
+/// [`Error::Degenerate`] for an empty or constant window.
+pub fn noise_compensated_kurtosis(x: &[f32], noise_var: f32) -> Result<f32> {
+    if x.is_empty() {
+        return Err(Error::Degenerate);
+    }
+    if !noise_var.is_finite() {
+        return Err(Error::NonFinite);
+    }
+    let n = x.len() as f64;
+    let mut sum = 0.0f64;
+    for &v in x {
+        if !v.is_finite() {
+            return Err(Error::NonFinite);
+        }
+        sum += f64::from(v);
+    }
+    let mean = sum / n;
+    let (mut m2, mut m4) = (0.0f64, 0.0f64);
+    for &v in x {
+        let d = f64::from(v) - mean;
+        let d2 = d * d;
+        m2 += d2;
+        m4 += d2 * d2;
+    }
+    let (m2, m4) = (m2 / n, m4 / n);
+    if m2 <= 1e-30 {
+        return Err(Error::Degenerate);
+    }
+    let s2 = (m2 - f64::from(noise_var.max(0.0))).max(KURTOSIS_NC_MIN_SIGNAL_SHARE * m2);
+    let kappa = (m4 - 3.0 * m2 * m2) / (s2 * s2);
+    let mag = math::ln(1.0 + kappa.abs());
+    Ok((if kappa < 0.0 { -mag } else { mag }) as f32)
+}
 
 /// Time-domain statistics of one segment.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -690,7 +764,9 @@ pub const NOISE_FLOOR_LO_HZ: f32 = 200.0;
 /// β = 0.6 → 73 %, 1 → 81 %, 2 → 69 %; see `docs/evaluation-cwru.md`).
 ///
 /// `spectrum` and `out` must have `x.len()` entries (a power of two); `power` and
-/// `work` at least `x.len()/2 + 1`.
+/// `work` at least `x.len()/2 + 1`. Returns the white-noise variance per sample the
+/// floor stands for, `N / n` (0 when no floor could be read; see
+/// [`noise_compensated_kurtosis`]).
 ///
 /// # Errors
 /// Length mismatches, a length that is not a power of two, non-finite input.
@@ -702,7 +778,7 @@ pub fn subtract_noise_floor(
     power: &mut [f32],
     work: &mut [f32],
     out: &mut [f32],
-) -> Result<()> {
+) -> Result<f32> {
     let n = x.len();
     let half = n / 2 + 1;
     expect_len(spectrum.len(), n)?;
@@ -746,16 +822,16 @@ pub fn subtract_noise_floor(
     let k_hi = ((band_limit_hz.min(0.5 * fs_hz) / df) as usize).min(half);
     copy_into(out, x);
     if k_hi <= k_lo + 2 * NOISE_SMOOTH_BINS {
-        return Ok(()); // Too short a band to read a floor from: leave the signal.
+        return Ok(0.0); // Too short a band to read a floor from: leave the signal.
     }
     let m = k_hi - k_lo;
     let (Some(dst), Some(src)) = (power.get_mut(..m), work.get(k_lo..k_hi)) else {
-        return Ok(());
+        return Ok(0.0);
     };
     copy_into(dst, src);
     let floor = select_nth(dst, (NOISE_FLOOR_QUANTILE * m as f32) as usize).unwrap_or(0.0);
     if !(floor.is_finite() && floor > 0.0) {
-        return Ok(());
+        return Ok(0.0);
     }
     for (k, &pk) in work.iter().enumerate() {
         let g = if pk > 0.0 {
@@ -776,7 +852,7 @@ pub fn subtract_noise_floor(
     for (o, z) in out.iter_mut().zip(spectrum.iter()) {
         *o = z.re;
     }
-    Ok(())
+    Ok(floor / n as f32)
 }
 
 /// `dst.copy_from_slice(src)` for slices of equal length, as a loop: an outlined
@@ -825,11 +901,14 @@ pub fn node_features<const W: usize>(
         power,
         clean,
     } = scratch;
-    if cfg.noise_compensation {
-        subtract_noise_floor(x, cfg.fs_hz, cfg.band_limit_hz, spectrum, power, env, clean)?;
+    let noise_var = if cfg.noise_compensation {
+        subtract_noise_floor(x, cfg.fs_hz, cfg.band_limit_hz, spectrum, power, env, clean)?
     } else {
         copy_into(clean, x);
-    }
+        0.0
+    };
+    // On the measured samples: the noise is taken out of the moments, not the signal.
+    let kurtosis_nc = noise_compensated_kurtosis(x, noise_var)?;
     let x: &[f32; W] = clean;
 
     // Envelope features over the whole window (shared by its rows).
@@ -875,6 +954,9 @@ pub fn node_features<const W: usize>(
         for row in out.iter_mut() {
             for (d, &v) in row.iter_mut().skip(ENVELOPE_OFFSET).zip(&env_row) {
                 *d = v;
+            }
+            if let Some(d) = row.get_mut(KURTOSIS_NC_INDEX) {
+                *d = kurtosis_nc;
             }
         }
     }
@@ -946,7 +1028,8 @@ mod tests {
         for (k, name) in FEATURE_NAMES.iter().enumerate() {
             assert_eq!(feature_index(name), k);
         }
-        assert_eq!(FEATURE_DIM, 27);
+        assert_eq!(FEATURE_DIM, 28);
+        assert_eq!(feature_index("kurtosis_nc"), KURTOSIS_NC_INDEX);
         for gone in [
             "crest_factor",
             "kurtosis",
@@ -956,6 +1039,75 @@ mod tests {
         ] {
             assert!(!FEATURE_NAMES.contains(&gone), "{gone}");
         }
+    }
+
+    /// Impacts at 162 Hz (a decaying 3 kHz ring each) in a small background: the
+    /// plain excess kurtosis collapses under white noise at 0 dB, the compensated one
+    /// (noise read from the compensation's own floor) keeps its centre. Also a sine
+    /// (excess −1.5) and Gaussian noise (excess 0) with the true noise variance.
+    #[test]
+    fn noise_compensated_kurtosis_survives_white_noise() {
+        const N: usize = 2048;
+        let fs = 12_000.0f64;
+        let mut rng = Xoshiro128pp::seed_from_u64(11);
+        let clean: [f32; N] = core::array::from_fn(|i| {
+            let t = i as f64 / fs;
+            let since = t % (1.0 / 162.0);
+            (math::exp(-since / 4e-4) * math::sin(2.0 * core::f64::consts::PI * 3_000.0 * since)
+                + 0.05 * rng.normal()) as f32
+        });
+        let p = clean.iter().map(|&v| f64::from(v).powi(2)).sum::<f64>() / N as f64;
+        let sigma = math::sqrt(p); // 0 dB
+        let noisy: [f32; N] = core::array::from_fn(|i| clean[i] + (sigma * rng.normal()) as f32);
+        let mut spectrum = [Complex32::ZERO; N];
+        let (mut power, mut work, mut out) = ([0.0f32; N], [0.0f32; N], [0.0f32; N]);
+        let mut floor = |x: &[f32; N]| {
+            subtract_noise_floor(
+                x,
+                fs as f32,
+                5_000.0,
+                &mut spectrum,
+                &mut power,
+                &mut work,
+                &mut out,
+            )
+            .unwrap()
+        };
+        let (nv_clean, nv_noisy) = (floor(&clean), floor(&noisy));
+        assert!(
+            nv_noisy > 0.5 * p as f32 && nv_noisy < 1.5 * p as f32,
+            "{nv_noisy} vs {p}"
+        );
+        let k_clean = noise_compensated_kurtosis(&clean, nv_clean).unwrap();
+        let k_noisy = noise_compensated_kurtosis(&noisy, nv_noisy).unwrap();
+        let plain_noisy = noise_compensated_kurtosis(&noisy, 0.0).unwrap();
+        assert!(k_clean > 1.5, "{k_clean}");
+        assert!((k_noisy - k_clean).abs() < 0.5, "{k_clean} -> {k_noisy}");
+        assert!(
+            k_clean - plain_noisy > 1.0,
+            "{k_clean} -> plain {plain_noisy}"
+        );
+
+        let sine: [f32; N] = core::array::from_fn(|i| {
+            math::sin(2.0 * core::f64::consts::PI * 500.0 * i as f64 / fs) as f32
+        });
+        let k = noise_compensated_kurtosis(&sine, 0.0).unwrap();
+        assert!((k + math::ln(2.5) as f32).abs() < 0.02, "{k}");
+        let gauss: [f32; N] = core::array::from_fn(|_| rng.normal() as f32);
+        let k = noise_compensated_kurtosis(&gauss, 0.0).unwrap();
+        assert!(k.abs() < 0.3, "{k}");
+        // A noise estimate above the variance is capped, not a division by ~0.
+        let k = noise_compensated_kurtosis(&gauss, 10.0).unwrap();
+        assert!(k.is_finite());
+        assert_eq!(noise_compensated_kurtosis(&[], 0.0), Err(Error::Degenerate));
+        assert_eq!(
+            noise_compensated_kurtosis(&[1.0; 8], 0.0),
+            Err(Error::Degenerate)
+        );
+        assert_eq!(
+            noise_compensated_kurtosis(&sine, f32::NAN),
+            Err(Error::NonFinite)
+        );
     }
 
     #[test]

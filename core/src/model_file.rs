@@ -1,12 +1,12 @@
 //! The model file: one postcard-encoded file with everything the edge needs to run a
 //! trained DS-STGAT, decoded without allocation into fixed-capacity buffers.
 //!
-//! # Layout (format version 4)
+//! # Layout (format version 5)
 //!
 //! | offset | bytes | field | encoding |
 //! |---|---|---|---|
 //! | 0 | 8 | magic [`MAGIC`] = `PTWINMDL` | ASCII |
-//! | 8 | 2 | format version [`FORMAT_VERSION`] = 4 | u16, little-endian |
+//! | 8 | 2 | format version [`FORMAT_VERSION`] = 5 | u16, little-endian |
 //! | 10 | 4 | payload length `L` | u32, little-endian |
 //! | 14 | `L` | payload: a [`ModelFile`] | postcard 1.x |
 //! | 14 + `L` | 4 | CRC-32 of the payload (see [`crc32`]) | u32, little-endian |
@@ -118,7 +118,9 @@
 //! Version 4: node features went from 32 to 27 (the broadband shape statistics —
 //! crest, kurtosis, skewness, shape and impulse factors — left the node features,
 //! `crate::features`), so a version-3 file means five features the core no longer
-//! computes.
+//! computes. Version 5: node features went from 27 to 28 (the window's
+//! noise-compensated kurtosis, `features::noise_compensated_kurtosis`), so a
+//! version-4 file's normalization and embedding lack a column.
 
 use heapless::{String, Vec};
 use serde::{Deserialize, Serialize};
@@ -137,7 +139,7 @@ use crate::simulator::BearingParams;
 /// The first 8 bytes of every model file.
 pub const MAGIC: [u8; 8] = *b"PTWINMDL";
 /// The format version this core writes and reads.
-pub const FORMAT_VERSION: u16 = 4;
+pub const FORMAT_VERSION: u16 = 5;
 /// Bytes before the payload: magic, version, payload length.
 pub const HEADER_LEN: usize = 14;
 /// Bytes after the payload: the CRC-32.
@@ -2099,7 +2101,7 @@ mod tests {
         assert_eq!(decode(&f), Err(Error::ModelMagic));
 
         let mut f = file.clone();
-        for old in [1u16, 2, 3, 5] {
+        for old in [1u16, 2, 3, 4, 6] {
             f[8..10].copy_from_slice(&old.to_le_bytes());
             assert_eq!(
                 decode(&f),

@@ -24,7 +24,7 @@ mod golden {
 }
 use golden::{F, N, T};
 
-/// The shipped model's int8 network: `F` = 27 features, `H` = 32, room for 16 classes
+/// The shipped model's int8 network: `F` = 28 features, `H` = 32, room for 16 classes
 /// and 8 indicators (the shipped heads are zero-padded up to these).
 type Net = DsStgat<F, 32, 16, 8>;
 type NetScratch = Scratch<T, N, F, 32>;

@@ -10,7 +10,7 @@ use pumptwin_core::features::FEATURE_DIM;
 use pumptwin_core::graph::{Adjacency, NodeMask};
 use pumptwin_core::model_file::{self, crc32, ModelFile, FORMAT_VERSION, MAGIC};
 
-/// The shipped model's shapes (the gateway's): F = 27, H = 32, ≤ 16 classes, ≤ 8
+/// The shipped model's shapes (the gateway's): F = 28, H = 32, ≤ 16 classes, ≤ 8
 /// indicators; 8 steps, 3 nodes.
 type Net = DsStgat<FEATURE_DIM, 32, 16, 8>;
 

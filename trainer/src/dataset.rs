@@ -19,7 +19,7 @@
 //!
 //! # Shapes (per side, `W` windows, row-major)
 //! - `x`: `[W, T, N, F]` normalized node features (`T` = 8 steps, `N` = 3 nodes
-//!   DE/FE/BA, `F` = 27 features); an absent node's rows are 0
+//!   DE/FE/BA, `F` = 28 features); an absent node's rows are 0
 //! - `adj`: `[W, T, N, N]` the core's normalized adjacency `Â_t` (row `i` = neighbours
 //!   of node `i`; an absent node keeps only its self-loop)
 //! - `mask`: `[W, N]` present nodes (the normal record 97 has no BA channel)

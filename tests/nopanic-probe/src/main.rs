@@ -33,7 +33,7 @@ use pumptwin_core::model_file::{decode_into, ModelFile};
 use pumptwin_core::simulator::BearingParams;
 use pumptwin_core::tracking::{Tracker, TrackerConfig};
 
-/// The gateway's shapes: 2048-sample windows, T = 8 segments, N = 3 nodes, F = 27,
+/// The gateway's shapes: 2048-sample windows, T = 8 segments, N = 3 nodes, F = 28,
 /// H = 32, ≤ 16 classes, ≤ 8 indicators.
 const W: usize = 2048;
 const T: usize = 8;
