@@ -202,15 +202,7 @@ pub fn noise_compensated_kurtosis(x: &[f32], noise_var: f32) -> Result<f32> {
         }
         sum += f64::from(v);
     }
-    let mean = sum / n;
-    let (mut m2, mut m4) = (0.0f64, 0.0f64);
-    for &v in x {
-        let d = f64::from(v) - mean;
-        let d2 = d * d;
-        m2 += d2;
-        m4 += d2 * d2;
-    }
-    let (m2, m4) = (m2 / n, m4 / n);
+    let (m2, _, m4) = central_moments(x, sum / n);
     if m2 <= 1e-30 {
         return Err(Error::Degenerate);
     }
@@ -218,6 +210,21 @@ pub fn noise_compensated_kurtosis(x: &[f32], noise_var: f32) -> Result<f32> {
     let kappa = (m4 - 3.0 * m2 * m2) / (s2 * s2);
     let mag = math::ln(1.0 + kappa.abs());
     Ok((if kappa < 0.0 { -mag } else { mag }) as f32)
+}
+
+/// The central moments `(m2, m3, m4)` of `x` about `mean`, accumulated in f64 (the
+/// second pass of [`TimeStats::compute`] and [`noise_compensated_kurtosis`]).
+fn central_moments(x: &[f32], mean: f64) -> (f64, f64, f64) {
+    let (mut m2, mut m3, mut m4) = (0.0f64, 0.0f64, 0.0f64);
+    for &v in x {
+        let d = f64::from(v) - mean;
+        let d2 = d * d;
+        m2 += d2;
+        m3 += d2 * d;
+        m4 += d2 * d2;
+    }
+    let n = x.len().max(1) as f64;
+    (m2 / n, m3 / n, m4 / n)
 }
 
 /// Time-domain statistics of one segment.
@@ -266,15 +273,7 @@ impl TimeStats {
             hi = hi.max(v);
         }
         let mean = sum / n;
-        let (mut m2, mut m3, mut m4) = (0.0f64, 0.0f64, 0.0f64);
-        for &v in x {
-            let d = f64::from(v) - mean;
-            let d2 = d * d;
-            m2 += d2;
-            m3 += d2 * d;
-            m4 += d2 * d2;
-        }
-        let (m2, m3, m4) = (m2 / n, m3 / n, m4 / n);
+        let (m2, m3, m4) = central_moments(x, mean);
         if m2 <= 1e-30 || hi <= lo {
             return Err(Error::Degenerate);
         }
