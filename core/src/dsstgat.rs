@@ -7,7 +7,7 @@
 //! e_ti   = ReLU(W_in x_ti + b_in)                            embedding (eq. 9's f_embed)
 //! u_t    = GAT(e_t, Â_t, mask)                               eqs. 4–6 (quant::gat)
 //! s_ti   = GRU(u_ti, s_(t−1)i),  s_0 = 0                     eq. 7   (quant::gru)
-//! g      = AttentionPool(s, mask)                            §4.2    (quant::pool)
+//! g      = AttentionPool(s, mask.readout())                  §4.2    (quant::pool)
 //! logits = W_o' g + b_o'                                     eq. 8, W_o' = W_o W_c folded
 //! ind    = W_f' g + b_f'                                     eq. 13, W_f' = W_f W_c folded
 //! ```
@@ -28,6 +28,11 @@
 //! features are never read, it gets and sends no attention, its GRU state is not
 //! advanced and it has no weight in the pooling. A window with no node present is
 //! [`Error::NothingPresent`].
+//!
+//! # Readout at the source node
+//! The pooling reads the states of node 0, the sensor on the monitored bearing, when
+//! it is present, and of every present node otherwise ([`NodeMask::readout`], which
+//! says why); the other nodes inform node 0 through the GAT of every step.
 //!
 //! # Shapes
 //! - `x`: `[T][N][F]`, `adj`: `[T]` adjacencies `[N][N]`, `mask`: `[N]`
@@ -226,7 +231,7 @@ impl<const F: usize, const H: usize, const C: usize, const K: usize> DsStgatF32<
         }
         let mut g = [0.0f32; H];
         self.pool
-            .forward_observed(&scratch.states, mask, &mut g, &mut ranges.score)?;
+            .forward_observed(&scratch.states, &mask.readout(), &mut g, &mut ranges.score)?;
         self.classifier.forward(&g, &mut out.logits);
         self.indicator.forward(&g, &mut out.indicators);
         ranges.logits.observe_all(&out.logits);
@@ -454,7 +459,7 @@ impl<const F: usize, const H: usize, const C: usize, const K: usize> DsStgat<F, 
             s.states[t] = s.hidden;
         }
         let mut g = [0i8; H];
-        self.pool.forward(&s.states, mask, &mut g)?;
+        self.pool.forward(&s.states, &mask.readout(), &mut g)?;
         self.classifier.linear().forward_i32(&g, &mut out.logits);
         out.class = out
             .logits

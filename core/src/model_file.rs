@@ -1,12 +1,12 @@
 //! The model file: one postcard-encoded file with everything the edge needs to run a
 //! trained DS-STGAT, decoded without allocation into fixed-capacity buffers.
 //!
-//! # Layout (format version 5)
+//! # Layout (format version 6)
 //!
 //! | offset | bytes | field | encoding |
 //! |---|---|---|---|
 //! | 0 | 8 | magic [`MAGIC`] = `PTWINMDL` | ASCII |
-//! | 8 | 2 | format version [`FORMAT_VERSION`] = 5 | u16, little-endian |
+//! | 8 | 2 | format version [`FORMAT_VERSION`] = 6 | u16, little-endian |
 //! | 10 | 4 | payload length `L` | u32, little-endian |
 //! | 14 | `L` | payload: a [`ModelFile`] | postcard 1.x |
 //! | 14 + `L` | 4 | CRC-32 of the payload (see [`crc32`]) | u32, little-endian |
@@ -111,7 +111,8 @@
 //! # Versioning
 //!
 //! Any change to the payload (a field added, removed, reordered or retyped, a
-//! capacity lowered) needs a new [`FORMAT_VERSION`]; a reader rejects every version
+//! capacity lowered) or to what the network computes from it needs a new
+//! [`FORMAT_VERSION`]; a reader rejects every version
 //! but its own rather than guess. Version 3: node features went from 20 to 32 (the
 //! four linear band shares became sixteen log band shares), so a version-2 file's
 //! normalization and embedding no longer fit the features the core computes.
@@ -120,7 +121,10 @@
 //! `crate::features`), so a version-3 file means five features the core no longer
 //! computes. Version 5: node features went from 27 to 28 (the window's
 //! noise-compensated kurtosis, `features::noise_compensated_kurtosis`), so a
-//! version-4 file's normalization and embedding lack a column.
+//! version-4 file's normalization and embedding lack a column. Version 6: the same
+//! payload, but the network reads its diagnosis at the source node
+//! (`graph::NodeMask::readout`), so a version-5 file's pooling and heads were trained
+//! for a readout over every node and would be run with the wrong one.
 
 use heapless::{String, Vec};
 use serde::{Deserialize, Serialize};
@@ -139,7 +143,7 @@ use crate::simulator::BearingParams;
 /// The first 8 bytes of every model file.
 pub const MAGIC: [u8; 8] = *b"PTWINMDL";
 /// The format version this core writes and reads.
-pub const FORMAT_VERSION: u16 = 5;
+pub const FORMAT_VERSION: u16 = 6;
 /// Bytes before the payload: magic, version, payload length.
 pub const HEADER_LEN: usize = 14;
 /// Bytes after the payload: the CRC-32.
@@ -2101,7 +2105,7 @@ mod tests {
         assert_eq!(decode(&f), Err(Error::ModelMagic));
 
         let mut f = file.clone();
-        for old in [1u16, 2, 3, 4, 6] {
+        for old in [1u16, 2, 3, 4, 5, 7] {
             f[8..10].copy_from_slice(&old.to_le_bytes());
             assert_eq!(
                 decode(&f),

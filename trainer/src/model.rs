@@ -15,7 +15,8 @@
 //! r_t     = σ(W_r u_t + b_r + U_r s_{t−1})                         (7b)
 //! ñ_t     = tanh(W_n u_t + b_n + U_n (r_t ⊙ s_{t−1}))              (7c) reset before U
 //! s_t     = (1 − z_t) ⊙ s_{t−1} + z_t ⊙ ñ_t                        (7d)
-//! β_ti    = softmax over present (t, i) of (w_pᵀ s_ti + b_p)       attention pooling
+//! β_ti    = softmax over (t, i ∈ R) of (w_pᵀ s_ti + b_p)           attention pooling
+//!           R = {0} if the source node 0 is present, else the present nodes
 //! g       = Σ β_ti s_ti                                            g_system
 //! Z       = W_c g + b_c                                            (12) compression
 //! ŷ       = Softmax(W_o Z + b_o)                                   (8)  (logits returned)
@@ -29,6 +30,11 @@
 //! [`pumptwin_core::quant::AttentionPoolF32`], so that an export maps each tensor onto
 //! a core kernel. `Z → ŷ` is linear, so the export can fold `W_o W_c` into the core's
 //! classifier on `g`.
+//!
+//! The pooling reads the source node 0 (the sensor on the monitored bearing) when it
+//! is present, every present node otherwise ([`readout_mask`], the core's
+//! `NodeMask::readout`, which says why); the other sensors reach the diagnosis
+//! through the GAT.
 //!
 //! Absent nodes (a missing channel) are excluded, not zero-filled and forgotten: they
 //! receive no attention in the GAT (`j ∉ N_ti`), their GAT output is 0, and they get
@@ -247,6 +253,20 @@ impl AttentionPool {
     }
 }
 
+/// The nodes the pooling reads, `[B, N]`: node 0 (the source node, the sensor on the
+/// monitored bearing) where it is present, every present node otherwise — the core's
+/// `NodeMask::readout`, which says why.
+///
+/// # Shapes
+/// - `mask`: `[B, N]` (1.0 present) → `[B, N]`
+pub fn readout_mask(mask: Tensor<2>) -> Tensor<2> {
+    let [b, n] = mask.dims();
+    let source = mask.clone().narrow(1, 0, 1); // [B, 1]
+    let only_source =
+        Tensor::<2>::zeros([b, n], &mask.device()).slice_assign([0..b, 0..1], source.clone());
+    only_source + mask * source.neg().add_scalar(1.0)
+}
+
 /// What the model returns.
 #[derive(Debug, Clone)]
 pub struct DsStgatOutput {
@@ -305,7 +325,7 @@ impl DsStgat {
             .reshape([b, t, n, d]); // [B, T, N, H]
         let s = self.gru.forward(u); // [B, T, N, H]
         let node_states = s.clone().narrow(1, t - 1, 1).reshape([b, n, d]); // [B, N, H]
-        let (g, _) = self.pool.forward(s, mask); // [B, H]
+        let (g, _) = self.pool.forward(s, readout_mask(mask)); // [B, H]
         let z = self.compress.forward(g.clone()); // [B, Z]  (12)
         DsStgatOutput {
             logits: self.classifier.forward(z.clone()), // [B, C]  (8)
@@ -334,6 +354,28 @@ mod tests {
         (0..n)
             .map(|i| ((i as f32 * k).sin() * 1.7).fract())
             .collect()
+    }
+
+    #[test]
+    fn the_readout_mask_is_the_cores() {
+        let device = Device::flex();
+        let masks = [
+            [true, true, true],
+            [true, true, false],
+            [false, true, true],
+            [false, false, true],
+        ];
+        let flat: Vec<f32> = masks
+            .iter()
+            .flatten()
+            .map(|&m| if m { 1.0 } else { 0.0 })
+            .collect();
+        let got = values(readout_mask(tensor(flat, [4, 3], &device)));
+        for (k, m) in masks.iter().enumerate() {
+            let want = pumptwin_core::graph::NodeMask(*m).readout();
+            let want: Vec<f32> = want.0.iter().map(|&m| if m { 1.0 } else { 0.0 }).collect();
+            assert_eq!(got[3 * k..3 * k + 3], want[..], "mask {m:?}");
+        }
     }
 
     #[test]
