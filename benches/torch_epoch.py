@@ -84,7 +84,13 @@ class DsStgat(nn.Module):
         u = self.gat(h0.reshape(b * t, n, d), adj.reshape(b * t, n, n), mask_bt).reshape(b, t, n, d)
         s = self.gru(u)
         score = self.score(s).reshape(b, t * n)
-        present = mask.unsqueeze(1).expand(b, t, n).reshape(b, t * n)
+        # Readout at the source node 0 where present, every present node otherwise
+        # (pumptwin_core::graph::NodeMask::readout, the burn model's readout_mask).
+        source = mask[:, :1]
+        only_source = torch.zeros_like(mask)
+        only_source[:, :1] = source
+        readout = only_source + mask * (1.0 - source)
+        present = readout.unsqueeze(1).expand(b, t, n).reshape(b, t * n)
         beta = score.masked_fill(present < 0.5, MASKED).softmax(1)
         g = (beta.unsqueeze(1) @ s.reshape(b, t * n, d)).reshape(b, d)
         z = self.compress(g)
