@@ -1,7 +1,7 @@
 //! The DS-STGAT in burn (paper §4.2 and §4.4, eqs. 4–8 and 12–13): node embedding, a
 //! graph-attention layer per step over the core's dynamic graphs, a GRU over the
-//! steps per node, attention pooling over present (step, node) pairs, a compression
-//! layer, and two heads (class and physical indicators).
+//! steps per node, attention pooling over the (step, node) pairs of the readout
+//! nodes, a compression layer, and two heads (class and physical indicators).
 //!
 //! ```text
 //! h⁰_ti   = ReLU(W_in x_ti + b_in)                                 embedding (eq. 9's f_embed)
@@ -226,7 +226,8 @@ fn fast_tanh<const D: usize>(x: Tensor<D>) -> Tensor<D> {
     sigmoid(x * 2.0) * 2.0 - 1.0
 }
 
-/// Attention pooling over present (step, node) pairs into `g_system`.
+/// Attention pooling over the (step, node) pairs its mask admits into `g_system` (the
+/// DS-STGAT passes [`readout_mask`]).
 #[derive(Module, Debug)]
 pub struct AttentionPool {
     /// Score `w_pᵀ s + b_p`, `[H, 1]`.
