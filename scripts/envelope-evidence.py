@@ -17,33 +17,23 @@ that says "ball"). It looks like a healthy bearing. On the fault-size protocol's
 side (IR014 468, B014 471, OR014 470 windows) a classifier that cannot name OR014 is
 capped at (468 + 471) / 1409 = 66.6 %, below the 67 % target.
 """
-import csv
 import math
-import json
-import os
 import statistics as st
-import subprocess
 import sys
 import tempfile
 
+from cwru_features import manifest, record_features
+
 data = sys.argv[1] if len(sys.argv) > 1 else "../shared/data/cwru"
 hp = sys.argv[2] if len(sys.argv) > 2 else "0"
-root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-exe = os.path.join(root, "target/release/pumptwin")
-if not os.path.exists(exe):
-    subprocess.run(["cargo", "build", "--release", "-p", "pumptwin-trainer", "--bin", "pumptwin"],
-                   cwd=root, check=True)
-rows = list(csv.DictReader(open(os.path.join(data, "MANIFEST.tsv")), delimiter="\t"))
+rows = manifest(data)
 print("| record | label | DE shaft | DE BPFO | DE BPFI | DE BSF | FE BPFO | FE BPFI | FE BSF | DE rms g | DE kurtosis |")
 print("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
 with tempfile.TemporaryDirectory() as tmp:
     for r in rows:
         if r["fault_type"] == "normal" or not r["cwru_label"].endswith("_" + hp):
             continue
-        out = os.path.join(tmp, "f.json")
-        subprocess.run([exe, "features", "--input", os.path.join(data, r["file"]), "--out", out],
-                       check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        d = json.load(open(out))
+        d = record_features(data, r, tmp)
         names = d["feature_names"]
         w = [x["features_raw"][0] for x in d["windows"]]  # first step: envelope rows are per window
 

@@ -12,22 +12,15 @@ spread at 0-2 HP (a band share at its floor) are left out. Runs `pumptwin featur
 record (release build). Measured 2026-11-24 (docs/evaluation-cwru.md, seventh round):
 B014's fan-end RMS +7.2, bandwidth -5.8, both toward IR021; no DE feature beyond 2.6.
 """
-import csv
-import json
-import os
 import statistics as st
-import subprocess
 import sys
 import tempfile
 
+from cwru_features import manifest, record_features
+
 cls, other = sys.argv[1], sys.argv[2]
 data = sys.argv[3] if len(sys.argv) > 3 else "../shared/data/cwru"
-root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-exe = os.path.join(root, "target/release/pumptwin")
-if not os.path.exists(exe):
-    subprocess.run(["cargo", "build", "--release", "-p", "pumptwin-trainer", "--bin", "pumptwin"],
-                   cwd=root, check=True)
-rows = {r["cwru_label"]: r for r in csv.DictReader(open(os.path.join(data, "MANIFEST.tsv")), delimiter="\t")}
+rows = {r["cwru_label"]: r for r in manifest(data)}
 
 
 def label(c, hp):
@@ -38,11 +31,7 @@ def label(c, hp):
 
 
 def windows(c, hp, tmp):
-    r = rows[label(c, hp)]
-    out = os.path.join(tmp, "f.json")
-    subprocess.run([exe, "features", "--input", os.path.join(data, r["file"]), "--out", out],
-                   check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    d = json.load(open(out))
+    d = record_features(data, rows[label(c, hp)], tmp)
     nodes, names = len(d["windows"][0]["features_raw"][0]), d["feature_names"]
     # [window][node][feature], averaged over segments
     return names, nodes, [[[st.fmean(seg[i][f] for seg in w["features_raw"]) for f in range(len(names))]
