@@ -110,9 +110,11 @@ pub fn run_name(arch: &str, ablation: &str, nodes: &str) -> String {
 /// Checked on the development protocols (`SRC=trainer/src/training.rs
 /// PROTOCOLS="time-block-dev cross-load-dev0" bash scripts/dev-sweep.sh NODE_DROPOUT
 /// "0.4" "42 7 1 3"`, four seeds, score = mean of clean, 0 dB and −4 dB): 0.4 → 87.5
-/// against 89.9 at 0.2 (clean `cross-load-dev0` 88.9 against 93.3). Masking more often
-/// does not make the network lean less on the node whose spectrum moves with load; it
-/// stays at 0.2, which is enough to break the "BA missing ⇒ normal" shortcut.
+/// against 89.9 at 0.2 (clean `cross-load-dev0` 88.9 against 93.3) with the pooling
+/// over every node, and 90.9 against 91.8 with the readout at the source node
+/// (`out/dev-sweep/NODE_DROPOUT/{allnodes,readout}/`). Masking more often does not make
+/// the network lean less on the node whose response moves with load; it stays at 0.2,
+/// which is enough to break the "BA missing ⇒ normal" shortcut.
 pub const NODE_DROPOUT: f64 = 0.2;
 
 /// Default of [`TrainConfig::pretrain_epochs`].
