@@ -27,9 +27,9 @@ use anyhow::{Context, Result};
 use burn::tensor::activation::log_softmax;
 use burn::tensor::Device;
 use pumptwin_core::features::{feature_index, FEATURE_DIM};
-use pumptwin_trainer::dataset::{Dataset, NoiseSpec, NODES};
+use pumptwin_trainer::dataset::{Dataset, NODES};
 use pumptwin_trainer::featurize::SEGMENTS;
-use pumptwin_trainer::metrics::NOISE_SNR_DB;
+use pumptwin_trainer::metrics::{noise_spec, NOISE_SNR_DB};
 use pumptwin_trainer::training::{
     load_protocol, load_trained_config, parse_protocol, Batch, BatchParts, Network,
 };
@@ -187,21 +187,13 @@ fn main() -> Result<()> {
     let pct = |ok: usize| 100.0 * ok as f64 / truth.len().max(1) as f64;
     // Subsets: the full graph, then each node dropped.
     let subsets: Vec<Option<usize>> = std::iter::once(None).chain((0..n).map(Some)).collect();
-    let conditions = [
-        (None, "clean"),
-        (Some(3usize), "0dB"),
-        (Some(5usize), "-4dB"),
-    ];
+    // Clean, then the metrics' 0 dB and −4 dB points (the same noise as `metrics.json`).
+    let point = |snr: f32| NOISE_SNR_DB.iter().position(|&s| s == snr);
+    let conditions = [(None, "clean"), (point(0.0), "0dB"), (point(-4.0), "-4dB")];
     for (k, label) in conditions {
         let side = match k {
             None => d.test.clone(),
-            Some(k) => d.noisy_test(
-                &corpus,
-                NoiseSpec {
-                    snr_db: NOISE_SNR_DB[k],
-                    seed: cfg.seed.wrapping_add(1_000 + k as u64),
-                },
-            )?,
+            Some(k) => d.noisy_test(&corpus, noise_spec(cfg.seed, k))?,
         };
         let mut lps = Vec::with_capacity(subsets.len());
         for s in &subsets {

@@ -30,6 +30,15 @@ use crate::dataset::{Corpus, Dataset, NoiseSpec, ProtocolData};
 /// SNRs of the noise-robustness curve, in dB.
 pub const NOISE_SNR_DB: [f32; 6] = [10.0, 6.0, 2.0, 0.0, -2.0, -4.0];
 
+/// The noise of the `k`-th point of the noise curve ([`NOISE_SNR_DB`]`[k]`) for a run
+/// seeded `seed`: each point draws its own stream, the same for every model of a run.
+pub fn noise_spec(seed: u64, k: usize) -> NoiseSpec {
+    NoiseSpec {
+        snr_db: NOISE_SNR_DB[k],
+        seed: seed.wrapping_add(1_000 + k as u64),
+    }
+}
+
 /// Confusion-matrix based classification metrics.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Classification {
@@ -210,11 +219,9 @@ pub fn evaluate_with<const N: usize>(
     let c = classification(&truth, &pred, classes);
     let normal = data.classes().iter().position(|c| c == "normal");
     let mut noise = Vec::with_capacity(NOISE_SNR_DB.len());
-    for (k, &snr_db) in NOISE_SNR_DB.iter().enumerate() {
-        let spec = NoiseSpec {
-            snr_db,
-            seed: seed.wrapping_add(1_000 + k as u64),
-        };
+    for k in 0..NOISE_SNR_DB.len() {
+        let spec = noise_spec(seed, k);
+        let snr_db = spec.snr_db;
         let noisy = data
             .noisy_test(corpus, spec)
             .with_context(|| format!("cannot featurize the test side at {snr_db} dB"))?;
