@@ -8,7 +8,8 @@
 //! u_t    = GAT(e_t, Â_t, mask)                               eqs. 4–6 (quant::gat)
 //! s_ti   = GRU(u_ti, s_(t−1)i),  s_0 = 0                     eq. 7   (quant::gru)
 //! g      = AttentionPool(s, mask.readout())                  §4.2    (quant::pool)
-//! logits = W_o' g + b_o'                                     eq. 8, W_o' = W_o W_c folded
+//! x̄_i    = (1/T) Σ_t x_ti[SENSOR_HEAD_FEATURES]             window mean, 0 if i absent
+//! logits = W_o' g + b_o' + V [x̄_0 … x̄_(S−1)] + b_v          eq. 8 + the sensor head
 //! ind    = W_f' g + b_f'                                     eq. 13, W_f' = W_f W_c folded
 //! ```
 //!
@@ -28,6 +29,16 @@
 //! features are never read, it gets and sends no attention, its GRU state is not
 //! advanced and it has no weight in the pooling. A window with no node present is
 //! [`Error::NothingPresent`].
+//!
+//! # The sensor head
+//! The class logits add a linear read of each sensor's window-mean features, with a
+//! weight row per sensor slot (`V`, [`SENSOR_HEAD_INPUTS`] inputs): the network's
+//! weights are shared by the nodes, so it cannot tell "this level at the fan end"
+//! from "this level at the drive end", and each sensor sits behind its own transfer
+//! path. The trainer trains the head beside the network (a cross-entropy of its own)
+//! and adds `γ·` its logits ([`SENSOR_HEAD_FEATURES`] says which features; the trainer
+//! says why and what it measured). Averaging the steps first is also what makes the
+//! head robust to noise: the mean of `T` segment features has a `√T` smaller spread.
 //!
 //! # Readout at the source node
 //! The pooling reads the states of node 0, the sensor on the monitored bearing, when
@@ -56,6 +67,67 @@ use crate::quant::{
 /// The heads' i32 outputs use `max|value| / HEAD_RESOLUTION` as their scale.
 pub const HEAD_RESOLUTION: f32 = 32768.0;
 
+/// The node features the sensor head reads (indices into
+/// [`crate::features::FEATURE_NAMES`]): the sixteen log band shares, each averaged over
+/// the window's steps. The trainer says how they were chosen (its
+/// `SENSOR_HEAD_WEIGHT`): with every feature the head scored a little higher on the
+/// development protocols, but it does not fit beside the network in 32 KiB of RAM.
+pub const SENSOR_HEAD_FEATURES: [usize; SENSOR_HEAD_DIM] = {
+    let first = crate::features::feature_index("band_db_01");
+    let mut list = [0; SENSOR_HEAD_DIM];
+    let mut i = 0;
+    while i < SENSOR_HEAD_DIM {
+        list[i] = first + i;
+        i += 1;
+    }
+    list
+};
+/// Features per node of the sensor head.
+pub const SENSOR_HEAD_DIM: usize = crate::features::SPECTRAL_BANDS;
+/// Node slots of the sensor head: a model's nodes fill the first slots, the rest read
+/// zero. Three, the nodes of every int8 model the project makes (DE, FE, BA): each
+/// slot costs `C·SENSOR_HEAD_DIM` bytes twice on an MCU (decoded file and network).
+pub const SENSOR_HEAD_NODES: usize = 3;
+/// Inputs of the sensor head, `SENSOR_HEAD_NODES · SENSOR_HEAD_DIM`, node-major.
+pub const SENSOR_HEAD_INPUTS: usize = SENSOR_HEAD_NODES * SENSOR_HEAD_DIM;
+
+/// The sensor head's input: slot `i < N` holds the mean over the `T` steps of node
+/// `i`'s features [`SENSOR_HEAD_FEATURES`] when the node is present, zero when it is
+/// absent; slots `≥ N` are zero. One definition for the float and int8 networks (the
+/// trainer's burn model is tested against it).
+///
+/// # Errors
+/// [`Error::ModelDimensions`] for more nodes than [`SENSOR_HEAD_NODES`] or rows
+/// narrower than the features the head reads.
+pub fn sensor_head_input<const T: usize, const N: usize, const F: usize>(
+    x: &[[[f32; F]; N]; T],
+    mask: &NodeMask<N>,
+    out: &mut [f32; SENSOR_HEAD_INPUTS],
+) -> Result<()> {
+    if N > SENSOR_HEAD_NODES {
+        return Err(Error::ModelDimensions(
+            "more nodes than the sensor head's slots (SENSOR_HEAD_NODES)",
+        ));
+    }
+    *out = [0.0; SENSOR_HEAD_INPUTS];
+    let inv_t = 1.0 / T as f32;
+    for (i, slot) in out.chunks_exact_mut(SENSOR_HEAD_DIM).take(N).enumerate() {
+        if !mask.0[i] {
+            continue;
+        }
+        for (o, &f) in slot.iter_mut().zip(&SENSOR_HEAD_FEATURES) {
+            let mut acc = 0.0f32;
+            for xt in x {
+                acc += *xt[i].get(f).ok_or(Error::ModelDimensions(
+                    "node rows narrower than the sensor head's features",
+                ))?;
+            }
+            *o = acc * inv_t;
+        }
+    }
+    Ok(())
+}
+
 /// Float reference DS-STGAT.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DsStgatF32<const F: usize, const H: usize, const C: usize, const K: usize> {
@@ -71,6 +143,8 @@ pub struct DsStgatF32<const F: usize, const H: usize, const C: usize, const K: u
     pub classifier: LinearF32<H, C>,
     /// Indicator head (eq. 13, compression folded in).
     pub indicator: LinearF32<H, K>,
+    /// Sensor head: its logits add to the classifier's ([`sensor_head_input`]).
+    pub sensor: LinearF32<SENSOR_HEAD_INPUTS, C>,
 }
 
 /// Max-abs observers of every calibrated activation of the network.
@@ -84,7 +158,9 @@ pub struct Ranges {
     pub gat: GatRanges,
     /// Pooling scores.
     pub score: MaxAbs,
-    /// Logits.
+    /// The sensor head's inputs (window-mean features).
+    pub sensor_input: MaxAbs,
+    /// Logits (network and sensor head together).
     pub logits: MaxAbs,
     /// Indicator outputs.
     pub indicators: MaxAbs,
@@ -200,6 +276,9 @@ impl<const F: usize, const H: usize, const C: usize, const K: usize> DsStgatF32<
         ranges: &mut Ranges,
     ) -> Result<()> {
         check_window(x, mask)?;
+        let mut xs = [0.0f32; SENSOR_HEAD_INPUTS];
+        sensor_head_input(x, mask, &mut xs)?;
+        ranges.sensor_input.observe_all(&xs);
         scratch.hidden = [[0.0; H]; N];
         for (t, (xt, at)) in x.iter().zip(adj).enumerate() {
             for (i, (xi, ei)) in xt.iter().zip(scratch.embedded.iter_mut()).enumerate() {
@@ -233,6 +312,11 @@ impl<const F: usize, const H: usize, const C: usize, const K: usize> DsStgatF32<
         self.pool
             .forward_observed(&scratch.states, &mask.readout(), &mut g, &mut ranges.score)?;
         self.classifier.forward(&g, &mut out.logits);
+        let mut sensor = [0.0f32; C];
+        self.sensor.forward(&xs, &mut sensor);
+        for (l, v) in out.logits.iter_mut().zip(sensor) {
+            *l += v;
+        }
         self.indicator.forward(&g, &mut out.indicators);
         ranges.logits.observe_all(&out.logits);
         ranges.indicators.observe_all(&out.indicators);
@@ -305,6 +389,7 @@ pub struct DsStgat<const F: usize, const H: usize, const C: usize, const K: usiz
     pool: AttentionPool<H>,
     classifier: Classifier<H, C>,
     indicator: QLinear<H, K>,
+    sensor: QLinear<SENSOR_HEAD_INPUTS, C>,
     /// Classes in use (`≤ C`; the rest are zero padding).
     classes: usize,
     /// Indicators in use (`≤ K`).
@@ -346,6 +431,12 @@ impl<const F: usize, const H: usize, const C: usize, const K: usize> DsStgat<F, 
             Classifier::from_f32(&float.classifier, hidden, head_scale(&ranges.logits)?)?;
         let indicator =
             QLinear::from_f32(&float.indicator, hidden, head_scale(&ranges.indicators)?)?;
+        // The sensor head writes i32 logits at the classifier's scale: they add exactly.
+        let sensor = QLinear::from_f32(
+            &float.sensor,
+            ranges.sensor_input.scale()?,
+            head_scale(&ranges.logits)?,
+        )?;
         Ok(Self {
             embed,
             gat,
@@ -353,6 +444,7 @@ impl<const F: usize, const H: usize, const C: usize, const K: usize> DsStgat<F, 
             pool,
             classifier,
             indicator,
+            sensor,
             classes: C,
             indicators: K,
         })
@@ -380,6 +472,7 @@ impl<const F: usize, const H: usize, const C: usize, const K: usize> DsStgat<F, 
         pool: AttentionPool::EMPTY,
         classifier: Classifier::EMPTY,
         indicator: QLinear::EMPTY,
+        sensor: QLinear::EMPTY,
         classes: 0,
         indicators: 0,
     };
@@ -400,6 +493,11 @@ impl<const F: usize, const H: usize, const C: usize, const K: usize> DsStgat<F, 
                 "the int8 DS-STGAT needs equal GAT and GRU hidden sizes H",
             ));
         }
+        if usize::from(m.dims.nodes) > SENSOR_HEAD_NODES {
+            return Err(Error::ModelDimensions(
+                "more nodes than the sensor head's slots (SENSOR_HEAD_NODES)",
+            ));
+        }
         if m.dims.layer_shape(LayerId::Embed) != (F, H) {
             return Err(Error::ModelDimensions(
                 "embed: sizes asked for != the file's (inputs, outputs)",
@@ -412,6 +510,11 @@ impl<const F: usize, const H: usize, const C: usize, const K: usize> DsStgat<F, 
             .set_in_place(|s| m.linear_into(LayerId::PoolScore, s).map(|_| ()))?;
         let classes = m.linear_into(LayerId::Classifier, self.classifier.linear_mut())?;
         let indicators = m.linear_into(LayerId::Indicator, &mut self.indicator)?;
+        if m.linear_into(LayerId::SensorHead, &mut self.sensor)? != classes {
+            return Err(Error::ModelDimensions(
+                "sensor_head: outputs != the classifier's classes",
+            ));
+        }
         self.classes = classes;
         self.indicators = indicators;
         Ok(())
@@ -432,6 +535,13 @@ impl<const F: usize, const H: usize, const C: usize, const K: usize> DsStgat<F, 
         s: &mut Scratch<T, N, F, H>,
     ) -> Result<()> {
         check_window(x, mask)?;
+        let mut sensor_in = [0.0f32; SENSOR_HEAD_INPUTS];
+        sensor_head_input(x, mask, &mut sensor_in)?;
+        let mut sensor_q = [0i8; SENSOR_HEAD_INPUTS];
+        let s_sensor = self.sensor.input_scale();
+        for (q, &v) in sensor_q.iter_mut().zip(&sensor_in) {
+            *q = quantize_value(v, s_sensor)?;
+        }
         let s_in = self.embed.input_scale();
         s.hidden = [[0; H]; N];
         for (t, (xt, at)) in x.iter().zip(adj).enumerate() {
@@ -461,6 +571,11 @@ impl<const F: usize, const H: usize, const C: usize, const K: usize> DsStgat<F, 
         let mut g = [0i8; H];
         self.pool.forward(&s.states, &mask.readout(), &mut g)?;
         self.classifier.linear().forward_i32(&g, &mut out.logits);
+        let mut sensor = [0i32; C];
+        self.sensor.forward_i32(&sensor_q, &mut sensor);
+        for (l, v) in out.logits.iter_mut().zip(sensor) {
+            *l = l.saturating_add(v);
+        }
         out.class = out
             .logits
             .get(..self.classes)
@@ -508,12 +623,22 @@ impl<const F: usize, const H: usize, const C: usize, const K: usize> DsStgat<F, 
         k.weight_scales.truncate(indicators);
         k.bias.truncate(indicators);
         file.indicator.head = k;
+        let mut v = QLinearParts::from_qlinear(&self.sensor)?;
+        v.weights.truncate(classes * SENSOR_HEAD_INPUTS);
+        v.weight_scales.truncate(classes);
+        v.bias.truncate(classes);
+        file.sensor_head = v;
         Ok(())
     }
 
     /// Classes in use: the first `classes()` logits are meaningful.
     pub fn classes(&self) -> usize {
         self.classes
+    }
+
+    /// The sensor head (`[C][SENSOR_HEAD_INPUTS]`).
+    pub fn sensor_head(&self) -> &QLinear<SENSOR_HEAD_INPUTS, C> {
+        &self.sensor
     }
 
     /// Indicators in use: the first `indicators()` outputs are meaningful.
@@ -735,6 +860,7 @@ mod tests {
                 b: vector(&mut rng, 0.3),
             },
             indicator: linear(&mut rng),
+            sensor: linear(&mut rng),
         }
     }
 
@@ -891,6 +1017,12 @@ mod tests {
         }
         float.indicator.w[3] = [0.0; H];
         float.indicator.b[3] = 0.0;
+        for row in float.sensor.w.iter_mut().skip(3) {
+            *row = [0.0; SENSOR_HEAD_INPUTS];
+        }
+        for b in float.sensor.b.iter_mut().skip(3) {
+            *b = 0.0;
+        }
         let mut rng = Xoshiro128pp::seed_from_u64(77);
         let mut ranges = Ranges::default();
         let mut sf = ScratchF32::<T, N, H>::new();

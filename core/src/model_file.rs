@@ -1,12 +1,12 @@
 //! The model file: one postcard-encoded file with everything the edge needs to run a
 //! trained DS-STGAT, decoded without allocation into fixed-capacity buffers.
 //!
-//! # Layout (format version 6)
+//! # Layout (format version 7)
 //!
 //! | offset | bytes | field | encoding |
 //! |---|---|---|---|
 //! | 0 | 8 | magic [`MAGIC`] = `PTWINMDL` | ASCII |
-//! | 8 | 2 | format version [`FORMAT_VERSION`] = 6 | u16, little-endian |
+//! | 8 | 2 | format version [`FORMAT_VERSION`] = 7 | u16, little-endian |
 //! | 10 | 4 | payload length `L` | u32, little-endian |
 //! | 14 | `L` | payload: a [`ModelFile`] | postcard 1.x |
 //! | 14 + `L` | 4 | CRC-32 of the payload (see [`crc32`]) | u32, little-endian |
@@ -29,6 +29,7 @@
 //! | `gru` | [`GruParts`] | `W_z, U_z, W_r, U_r, W_n, U_n` |
 //! | `pool` | [`PoolScoreParts`] | attention-pooling score layer (`[1][H_gru]`) |
 //! | `classifier` | [`ClassifierParts`] | eq. 8 head (`[C][H_gru]`, `W_o W_c` folded) |
+//! | `sensor_head` | [`SensorHeadParts`] | sensor head (`[C][SENSOR_HEAD_INPUTS]`), logits at the classifier's scale |
 //! | `indicator` | [`IndicatorParts`] | eq. 13 head (`[K][H_gru]`, `W_f W_c` folded), names, target mean/std |
 //! | `physics` | [`PhysicsParts`] | default [`BearingParams`] (f64, SI) |
 //! | `geometry` | [`GeometryParts`] | bearing `n`, `d`, `D`, contact angle |
@@ -75,6 +76,7 @@
 //! | [`MAX_GAT_WEIGHTS`] | 1024 | `H_gat·H_gat` |
 //! | [`MAX_GRU_WEIGHTS`] | 1024 | each GRU matrix |
 //! | [`MAX_CLASSIFIER_WEIGHTS`] | 512 | `C·H_gru` |
+//! | [`MAX_SENSOR_HEAD_WEIGHTS`] | `16·SENSOR_HEAD_INPUTS` | `C·SENSOR_HEAD_INPUTS` |
 //! | [`MAX_INDICATOR_WEIGHTS`] | 256 | `K·H_gru` |
 //!
 //! `F` must equal [`FEATURE_DIM`] (the normalization has that many entries).
@@ -124,12 +126,15 @@
 //! version-4 file's normalization and embedding lack a column. Version 6: the same
 //! payload, but the network reads its diagnosis at the source node
 //! (`graph::NodeMask::readout`), so a version-5 file's pooling and heads were trained
-//! for a readout over every node and would be run with the wrong one.
+//! for a readout over every node and would be run with the wrong one. Version 7: the
+//! sensor head joined the payload (`crate::dsstgat`, its logits add to the
+//! classifier's), so a version-6 file lacks a layer the network needs.
 
 use heapless::{String, Vec};
 use serde::{Deserialize, Serialize};
 
 use crate::bearing::BearingGeometry;
+use crate::dsstgat::SENSOR_HEAD_INPUTS;
 use crate::error::{Error, Result};
 use crate::features::{FeatureNorm, FEATURE_DIM};
 use crate::graph::GraphConfig;
@@ -143,7 +148,7 @@ use crate::simulator::BearingParams;
 /// The first 8 bytes of every model file.
 pub const MAGIC: [u8; 8] = *b"PTWINMDL";
 /// The format version this core writes and reads.
-pub const FORMAT_VERSION: u16 = 6;
+pub const FORMAT_VERSION: u16 = 7;
 /// Bytes before the payload: magic, version, payload length.
 pub const HEADER_LEN: usize = 14;
 /// Bytes after the payload: the CRC-32.
@@ -175,6 +180,8 @@ pub const MAX_GAT_WEIGHTS: usize = MAX_HIDDEN * MAX_HIDDEN;
 pub const MAX_GRU_WEIGHTS: usize = MAX_HIDDEN * MAX_HIDDEN;
 /// Int8 weights of the classifier, `MAX_CLASSES · MAX_HIDDEN`.
 pub const MAX_CLASSIFIER_WEIGHTS: usize = MAX_CLASSES * MAX_HIDDEN;
+/// Int8 weights of the sensor head, `MAX_CLASSES · SENSOR_HEAD_INPUTS`.
+pub const MAX_SENSOR_HEAD_WEIGHTS: usize = MAX_CLASSES * SENSOR_HEAD_INPUTS;
 /// Upper bound of `size_of::<ModelFile>()`, checked at compile time for every target.
 pub const DECODED_SIZE_BUDGET: usize = 16 * 1024;
 
@@ -194,6 +201,8 @@ pub type GruMatrixParts = QLinearParts<MAX_GRU_WEIGHTS, MAX_HIDDEN>;
 pub type PoolScoreParts = QLinearParts<MAX_HIDDEN, 1>;
 /// The classifier (`[C][H_gru]`).
 pub type ClassifierParts = QLinearParts<MAX_CLASSIFIER_WEIGHTS, MAX_CLASSES>;
+/// The sensor head (`[C][SENSOR_HEAD_INPUTS]`).
+pub type SensorHeadParts = QLinearParts<MAX_SENSOR_HEAD_WEIGHTS, MAX_CLASSES>;
 
 const _: () = assert!(
     MAX_STEPS <= u16::MAX as usize,
@@ -287,6 +296,7 @@ impl Dimensions {
             LayerId::GruUz | LayerId::GruUr | LayerId::GruUn => (hr, hr),
             LayerId::PoolScore => (hr, 1),
             LayerId::Classifier => (hr, usize::from(self.classes)),
+            LayerId::SensorHead => (SENSOR_HEAD_INPUTS, usize::from(self.classes)),
             LayerId::Indicator => (hr, usize::from(self.indicators)),
         }
     }
@@ -315,6 +325,9 @@ pub enum LayerId {
     PoolScore,
     /// Classifier `W_o, b_o` (eq. 8), `H_gru → C`.
     Classifier,
+    /// Sensor head `V, b_v`, `SENSOR_HEAD_INPUTS → C`: its logits add to the
+    /// classifier's (`crate::dsstgat::sensor_head_input`).
+    SensorHead,
     /// Physical-indicator head `W_f, b_f` (eq. 13), `H_gru → K`.
     Indicator,
 }
@@ -333,6 +346,7 @@ macro_rules! layer_msg {
             LayerId::GruUn => concat!("gru.u_n: ", $what),
             LayerId::PoolScore => concat!("pool: ", $what),
             LayerId::Classifier => concat!("classifier: ", $what),
+            LayerId::SensorHead => concat!("sensor_head: ", $what),
             LayerId::Indicator => concat!("indicator.head: ", $what),
         }
     };
@@ -340,7 +354,7 @@ macro_rules! layer_msg {
 
 impl LayerId {
     /// Every layer, in payload order.
-    pub const ALL: [LayerId; 11] = [
+    pub const ALL: [LayerId; 12] = [
         LayerId::Embed,
         LayerId::GatProject,
         LayerId::GruWz,
@@ -351,6 +365,7 @@ impl LayerId {
         LayerId::GruUn,
         LayerId::PoolScore,
         LayerId::Classifier,
+        LayerId::SensorHead,
         LayerId::Indicator,
     ];
 
@@ -367,6 +382,7 @@ impl LayerId {
             LayerId::GruUn => "gru.u_n",
             LayerId::PoolScore => "pool",
             LayerId::Classifier => "classifier",
+            LayerId::SensorHead => "sensor_head",
             LayerId::Indicator => "indicator.head",
         }
     }
@@ -710,6 +726,8 @@ pub struct ModelFile {
     pub pool: PoolScoreParts,
     /// Classifier head.
     pub classifier: ClassifierParts,
+    /// Sensor head.
+    pub sensor_head: SensorHeadParts,
     /// Physical-indicator head.
     pub indicator: IndicatorParts,
     /// Default physical parameters.
@@ -923,6 +941,7 @@ in_place::struct_in_place!(ModelFile {
     gru,
     pool,
     classifier,
+    sensor_head,
     indicator,
     physics,
     geometry,
@@ -967,6 +986,7 @@ const MAX_PAYLOAD_LEN: usize = 2 * seq_max(TEXT_LEN, 1) // model_name, created
     + 6 * linear_max(MAX_GRU_WEIGHTS, MAX_HIDDEN)
     + linear_max(MAX_HIDDEN, 1)
     + linear_max(MAX_CLASSIFIER_WEIGHTS, MAX_CLASSES)
+    + linear_max(MAX_SENSOR_HEAD_WEIGHTS, MAX_CLASSES)
     + seq_max(MAX_INDICATORS, seq_max(NAME_LEN, 1)) + 2 * seq_max(MAX_INDICATORS, 4)
     + linear_max(MAX_INDICATOR_WEIGHTS, MAX_INDICATORS)
     + 7 * 8 // physics
@@ -1431,6 +1451,7 @@ impl ModelFile {
             LayerId::GruUn => self.gru.u_n.view(),
             LayerId::PoolScore => self.pool.view(),
             LayerId::Classifier => self.classifier.view(),
+            LayerId::SensorHead => self.sensor_head.view(),
             LayerId::Indicator => self.indicator.head.view(),
         }
     }
@@ -1541,6 +1562,10 @@ impl ModelFile {
     ///
     /// # Errors
     /// As [`ModelFile::linear_padded`]. On error `out` is partly overwritten.
+    // Not inlined (nor the GAT and GRU builders): inlined into `DsStgat::load`, their
+    // locals added up to 2.2 KiB of stack on the Cortex-M4F; in their own frames the
+    // build peaks at 1.7 KiB (`firmware-probe/`).
+    #[inline(never)]
     pub fn linear_into<const IN: usize, const OUT: usize>(
         &self,
         id: LayerId,
@@ -1616,6 +1641,7 @@ impl ModelFile {
     ///
     /// # Errors
     /// As [`ModelFile::gat_layer`]. On error `out` is partly overwritten.
+    #[inline(never)]
     pub fn gat_layer_into<const F: usize, const H: usize>(
         &self,
         out: &mut GatLayer<F, H>,
@@ -1646,6 +1672,7 @@ impl ModelFile {
     ///
     /// # Errors
     /// As [`ModelFile::gru_cell`]. On error `out` is partly overwritten.
+    #[inline(never)]
     pub fn gru_cell_into<const IN: usize, const H: usize>(
         &self,
         out: &mut GruCell<IN, H>,
@@ -1753,6 +1780,7 @@ mod tests {
         pool: AttentionPool<HR>,
         classifier: Classifier<HR, C>,
         indicator: QLinear<HR, K>,
+        sensor: QLinear<SENSOR_HEAD_INPUTS, C>,
     }
 
     fn kernels(seed: u64) -> Kernels {
@@ -1814,6 +1842,15 @@ mod tests {
             QScale::new(1e-4).unwrap(),
         )
         .unwrap();
+        let sensor = QLinear::from_f32(
+            &LinearF32::<SENSOR_HEAD_INPUTS, C> {
+                w: matrix(&mut rng, 0.3),
+                b: vector(&mut rng, 0.2),
+            },
+            QScale::new(2.0 / 127.0).unwrap(),
+            QScale::new(1e-4).unwrap(),
+        )
+        .unwrap();
         Kernels {
             embed,
             gat,
@@ -1821,6 +1858,7 @@ mod tests {
             pool,
             classifier,
             indicator,
+            sensor,
         }
     }
 
@@ -1865,6 +1903,7 @@ mod tests {
             gru: GruParts::from_cell(&k.gru).unwrap(),
             pool: QLinearParts::from_qlinear(k.pool.score()).unwrap(),
             classifier: QLinearParts::from_qlinear(k.classifier.linear()).unwrap(),
+            sensor_head: QLinearParts::from_qlinear(&k.sensor).unwrap(),
             indicator: IndicatorParts {
                 names: ["impact", "band_ratio"].iter().map(|s| name(s)).collect(),
                 mean: Vec::from_slice(&[0.5, -1.0]).unwrap(),
@@ -1991,6 +2030,9 @@ mod tests {
         other.classifier.weights.truncate(3 * HR);
         other.classifier.weight_scales.truncate(3);
         other.classifier.bias.truncate(3);
+        other.sensor_head.weights.truncate(3 * SENSOR_HEAD_INPUTS);
+        other.sensor_head.weight_scales.truncate(3);
+        other.sensor_head.bias.truncate(3);
         let mut out = ModelFile::default();
         decode_into(&encode_vec(&other), &mut out).unwrap();
         assert_eq!(out, other);
@@ -2105,7 +2147,7 @@ mod tests {
         assert_eq!(decode(&f), Err(Error::ModelMagic));
 
         let mut f = file.clone();
-        for old in [1u16, 2, 3, 4, 5, 7] {
+        for old in [1u16, 2, 3, 4, 5, 6, 8] {
             f[8..10].copy_from_slice(&old.to_le_bytes());
             assert_eq!(
                 decode(&f),
@@ -2282,6 +2324,7 @@ mod tests {
         }
         fill(&mut m.pool, 1);
         fill(&mut m.classifier, MAX_CLASSES);
+        fill(&mut m.sensor_head, MAX_CLASSES);
         m.gat.a_src = core::iter::repeat_n(1, MAX_HIDDEN).collect();
         m.gat.a_dst = core::iter::repeat_n(1, MAX_HIDDEN).collect();
         m.gat.bias = core::iter::repeat_n(-MAX_BIAS, MAX_HIDDEN).collect();

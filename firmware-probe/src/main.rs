@@ -9,6 +9,8 @@
 
 use core::arch::asm;
 use core::fmt::Write as _;
+#[cfg(not(feature = "net-on-stack"))]
+use core::mem::ManuallyDrop;
 use core::mem::{size_of, MaybeUninit};
 use core::ptr::{addr_of, addr_of_mut};
 
@@ -37,15 +39,28 @@ static MODEL_BYTES: &[u8] = include_bytes!("../../models/dsstgat-cwru-tb.ptm");
 // Storage the firmware owns. All three are zero-initialised, so they live in .bss.
 // ---------------------------------------------------------------------------------
 
-/// The decoded model. All-zero is a valid `ModelFile`: its fields are integers,
-/// floats and `heapless` `Vec`/`String`s (a length and a `MaybeUninit` buffer), so a
-/// zeroed value is a model with empty buffers, which `decode_into` then overwrites.
-static mut MODEL: MaybeUninit<ModelFile> = MaybeUninit::zeroed();
+/// The decoded model and the inference scratch share one region: the model is read
+/// only while the network is built, the scratch only while it runs, so the scratch
+/// takes the model's place after the build (`main` writes `Scratch::new()` over it).
+/// All-zero is a valid `ModelFile`: its fields are integers, floats and `heapless`
+/// `Vec`/`String`s (a length and a `MaybeUninit` buffer), so a zeroed value is a model
+/// with empty buffers, which `decode_into` then overwrites.
+#[cfg(not(feature = "net-on-stack"))]
+#[allow(dead_code)] // accessed through casts: the union gives the size and alignment of both
+union Arena {
+    model: ManuallyDrop<MaybeUninit<ModelFile>>,
+    scratch: ManuallyDrop<NetScratch>,
+}
+#[cfg(not(feature = "net-on-stack"))]
+static mut ARENA: MaybeUninit<Arena> = MaybeUninit::zeroed();
 /// The int8 network, filled in place once by `DsStgat::load` (starts as the const
 /// `DsStgat::EMPTY`, so it is `.data`: its placeholder scales are not zero).
 #[cfg(not(feature = "net-on-stack"))]
 static mut NET: Net = Net::EMPTY;
-/// Inference scratch (`const fn new`, zeroed).
+/// `net-on-stack` builds the network while it runs, so model and scratch are apart.
+#[cfg(feature = "net-on-stack")]
+static mut MODEL: MaybeUninit<ModelFile> = MaybeUninit::zeroed();
+#[cfg(feature = "net-on-stack")]
 static mut SCRATCH: NetScratch = Scratch::new();
 
 // ---------------------------------------------------------------------------------
@@ -243,8 +258,18 @@ fn main() -> ! {
         before
     );
 
-    // SAFETY: `main` runs once and is the only code touching these statics; each is
-    // borrowed exactly once here. The zeroed `MODEL` is a valid `ModelFile` (see it).
+    // SAFETY: `main` runs once and is the only code touching these statics. The zeroed
+    // arena is a valid `ModelFile` (see `Arena`); the model borrow ends with the build,
+    // before the scratch is written over it.
+    #[cfg(not(feature = "net-on-stack"))]
+    let model: &mut ModelFile = unsafe {
+        (*addr_of_mut!(ARENA))
+            .as_mut_ptr()
+            .cast::<ModelFile>()
+            .as_mut()
+            .unwrap_or_else(|| halt())
+    };
+    #[cfg(feature = "net-on-stack")]
     let (model, scratch) = unsafe {
         (
             (*addr_of_mut!(MODEL)).assume_init_mut(),
@@ -291,6 +316,17 @@ fn main() -> ! {
             "stack peak (b) DsStgat::load:    {:6} B (network in a static, built in place)",
             s_build
         );
+
+        // The model is no longer read: the scratch takes its place, zeroed in place
+        // (a `Scratch` is integer arrays only, so all-zero bytes are `Scratch::new()`;
+        // writing `Scratch::new()` by value would first build it on the stack).
+        // SAFETY: the arena is aligned and sized for both members; `model` is not used
+        // again; every bit pattern of integer arrays is a valid value.
+        let scratch: &mut NetScratch = unsafe {
+            let p = (*addr_of_mut!(ARENA)).as_mut_ptr().cast::<NetScratch>();
+            core::ptr::write_bytes(p, 0, 1);
+            &mut *p
+        };
 
         // (c) one inference
         paint();

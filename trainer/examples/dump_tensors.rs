@@ -55,6 +55,8 @@ fn main() -> anyhow::Result<()> {
         "epochs": cfg.epochs, "learning_rate": cfg.learning_rate,
         "final_lr_fraction": cfg.final_lr_fraction, "lambda_indicator": cfg.lambda_indicator,
         "lambda_reg": cfg.lambda_reg, "node_dropout": cfg.node_dropout,
+        "sensor_features": pumptwin_core::dsstgat::SENSOR_HEAD_FEATURES,
+        "sensor_weight": pumptwin_trainer::model::SENSOR_HEAD_WEIGHT,
     });
     std::fs::write(
         out.join("shapes.json"),

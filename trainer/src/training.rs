@@ -314,6 +314,10 @@ impl TrainConfig {
             .with_hidden(self.hidden)
             .with_compressed(self.compressed)
             .with_indicators(N_INDICATORS)
+            .with_nodes(match self.node_set() {
+                Ok(NodeSet::Derived) => crate::dataset::N_DERIVED_NODES,
+                _ => N_NODES,
+            })
     }
 }
 
@@ -628,6 +632,9 @@ pub struct NetOutput {
     pub embedding: Tensor<2>,
     /// Final node states `[B, N, H]` (DS-STGAT only; the spectral head's input).
     pub node_states: Option<Tensor<3>>,
+    /// The DS-STGAT's network and sensor-head logits, each trained on its own
+    /// cross-entropy (`logits` is their weighted sum); `None` for the baselines.
+    pub parts: Option<(Tensor<2>, Tensor<2>)>,
 }
 
 impl NetOutput {
@@ -638,6 +645,7 @@ impl NetOutput {
             indicators: None,
             embedding,
             node_states: None,
+            parts: None,
         }
     }
 }
@@ -669,6 +677,7 @@ impl Net for DsStgat {
             indicators: Some(o.indicators),
             embedding: o.embedding,
             node_states: Some(o.node_states),
+            parts: Some(o.parts),
         }
     }
 }
@@ -879,7 +888,8 @@ pub fn infer(
     out
 }
 
-/// Mean total loss (weighted CE + λ_ind·indicator MSE) of a DS-STGAT inference model
+/// Mean total loss (weighted CE of the network and of the sensor head + λ_ind·indicator
+/// MSE) of a DS-STGAT inference model
 /// over `ds`, with the class weights of `cfg` fitted on `ds`.
 pub fn mean_loss(
     model: &DsStgat,
@@ -900,14 +910,16 @@ pub fn mean_loss(
         let w = normalized_weights(chunk, ds, &weights);
         let w = Tensor::from_data(TensorData::new(w, [chunk.len()]), device);
         let out = model.forward(b.x, b.adj, b.mask);
+        let (network, sensor) = out.parts;
         let (loss, _, _) = loss_terms(
-            out.logits,
+            network,
             out.indicators,
-            b.labels,
+            b.labels.clone(),
             b.indicators,
-            w,
+            w.clone(),
             cfg.lambda_indicator,
         );
+        let loss = loss + weighted_ce(sensor, b.labels, w);
         sum += f64::from(loss.into_scalar::<f32>()) * chunk.len() as f64;
     }
     sum / ds.len().max(1) as f64
@@ -1027,7 +1039,14 @@ fn replica_step<M: Net>(
         .filter(|(p, l)| p == *l)
         .count();
     let mut sums = [0.0f64; 6];
-    let ce = weighted_ce(out.logits, batch.labels.clone(), weights);
+    let ce = match out.parts {
+        // The network and the sensor head each learn the classes on their own.
+        Some((network, sensor)) => {
+            weighted_ce(network, batch.labels.clone(), weights.clone())
+                + weighted_ce(sensor, batch.labels.clone(), weights)
+        }
+        None => weighted_ce(out.logits, batch.labels.clone(), weights),
+    };
     let mut loss = ce.clone();
     sums[1] = f64::from(ce.into_scalar::<f32>());
     if let Some((between, total)) = align {
