@@ -1,0 +1,63 @@
+"""See scripts/linear-probe.sh."""
+import sys
+import tempfile
+import warnings
+
+import numpy as np
+from sklearn.linear_model import LogisticRegression
+from sklearn.preprocessing import StandardScaler
+
+from cwru_features import manifest, record_features
+
+warnings.filterwarnings("ignore")
+data = sys.argv[1]
+rows = [r for r in manifest(data) if r["fault_type"] != "normal"]
+names = None
+feats = {}  # label -> [windows, nodes, features]: the mean over a window's segments
+with tempfile.TemporaryDirectory() as tmp:
+    for r in rows:
+        f = record_features(data, r, tmp)
+        names = f["feature_names"]
+        x = np.array([w["features_raw"] for w in f["windows"]], dtype=float)
+        feats[r["cwru_label"]] = (np.nan_to_num(x).mean(1), r)
+bands = [i for i, n in enumerate(names) if n.startswith("band_db_")]
+
+
+def cls(r):
+    return r["fault_type"] + r["fault_size_in"][2:]
+
+
+def split(train_loads, test_load):
+    tr = [(x, cls(r)) for x, r in feats.values() if r["load_hp"] in train_loads]
+    te = [(x, cls(r)) for x, r in feats.values() if r["load_hp"] == test_load]
+    return tr, te
+
+
+def accuracy(tr, te, view):
+    classes = sorted({c for _, c in tr})
+    xtr = np.concatenate([view(x) for x, _ in tr])
+    ytr = np.concatenate([[classes.index(c)] * len(x) for x, c in tr])
+    s = StandardScaler().fit(xtr)
+    m = LogisticRegression(C=1.0, max_iter=5000).fit(s.transform(xtr), ytr)
+    ok = n = 0
+    for x, c in te:
+        ok += int((m.predict(s.transform(view(x))) == classes.index(c)).sum())
+        n += len(x)
+    return 100.0 * ok / n
+
+
+def per_sensor(nodes, fi=None):
+    return lambda x: (x[:, nodes] if fi is None else x[:, nodes][:, :, fi]).reshape(len(x), -1)
+
+
+def shared(x):  # one row for every sensor: the sum of the sensors' features (linear)
+    return x.sum(1)
+
+
+print("protocol         | per sensor: DE | DE+FE  | DE+FE+BA | shared by the sensors | per sensor, band shares")
+for name, train, test in [("cross-load", "012", "3"), ("cross-load-dev0", "12", "0"),
+                          ("cross-load-dev", "01", "2")]:
+    tr, te = split(set(train), test)
+    a = [accuracy(tr, te, v) for v in (per_sensor([0]), per_sensor([0, 1]), per_sensor([0, 1, 2]),
+                                         shared, per_sensor([0, 1, 2], bands))]
+    print(f"{name:<16} | {a[0]:6.2f}         | {a[1]:6.2f} | {a[2]:6.2f}   | {a[3]:6.2f}                | {a[4]:6.2f}")
