@@ -972,6 +972,37 @@ mod tests {
     }
 
     #[test]
+    fn sensor_head_input_is_the_window_mean_of_present_nodes() {
+        let mut rng = Xoshiro128pp::seed_from_u64(5);
+        let w = window(&mut rng, 3);
+        let mut out = [f32::NAN; SENSOR_HEAD_INPUTS];
+        sensor_head_input(&w.x, &NodeMask([true, false, true]), &mut out).unwrap();
+        for (e, &f) in SENSOR_HEAD_FEATURES.iter().enumerate() {
+            for (i, present) in [(0, true), (1, false), (2, true)] {
+                let mean = w.x.iter().map(|xt| xt[i][f]).sum::<f32>() / T as f32;
+                let got = out[i * SENSOR_HEAD_DIM + e];
+                let want = if present { mean } else { 0.0 };
+                assert!(
+                    (got - want).abs() <= 1e-6,
+                    "node {i} feature {f}: {got} vs {want}"
+                );
+            }
+        }
+        assert!(out[N * SENSOR_HEAD_DIM..].iter().all(|&v| v == 0.0));
+        // More nodes than slots, or rows without the head's features, are refused.
+        let wide = [[[0.0f32; F]; SENSOR_HEAD_NODES + 1]; 2];
+        assert!(matches!(
+            sensor_head_input(&wide, &NodeMask([true; SENSOR_HEAD_NODES + 1]), &mut out),
+            Err(Error::ModelDimensions(_))
+        ));
+        let narrow = [[[0.0f32; 4]; N]; 2];
+        assert!(matches!(
+            sensor_head_input(&narrow, &NodeMask([true; N]), &mut out),
+            Err(Error::ModelDimensions(_))
+        ));
+    }
+
+    #[test]
     fn absent_nodes_are_ignored_and_empty_windows_refused() {
         let (_, q) = calibrated(11);
         let mut rng = Xoshiro128pp::seed_from_u64(5);
