@@ -52,8 +52,9 @@
 //!
 //! # Memory
 //! [`DsStgat`] is plain data (its size is the sum of its kernels'); [`Scratch`] holds
-//! `T·N·H + 4·N·H + N·F` bytes plus the GAT/GRU scratch (≈ 1.4 KiB for `T = 8`,
-//! `N = 3`, `H = 32`, `F = 28`). Nothing allocates.
+//! `T·N·H + 4·N·H + N·F` bytes plus the GAT/GRU scratch (1 656 B for `T = 8`,
+//! `N = 3`, `H = 32`, `F = 28`); the sensor head's input (`SENSOR_HEAD_INPUTS` f32 and
+//! as many i8) lives on the stack of a forward pass. Nothing allocates.
 
 use crate::error::{Error, Result};
 use crate::graph::{Adjacency, NodeMask};

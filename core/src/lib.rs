@@ -14,7 +14,7 @@
 //! | [`tracking`] | on-edge tracking of radial stiffness and damping Θ by eq. 10 steps on a feature-space loss against the RK4 model | §4.3 eq. 10, eqs. 16–22 |
 //! | [`graph`] | dynamic sparse sensor graph: prior ⊕ Pearson, threshold, normalization | eqs. 1–3 |
 //! | [`quant`] | int8 DS-STGAT kernels (linear, LUTs, softmax, GAT, GRU, pooling, classifier) with float references | eqs. 4–8 |
-//! | [`dsstgat`] | the whole int8 DS-STGAT on one window (embedding → GAT → GRU → pooling → class and indicator heads) and its float reference | eqs. 4–9, 12–13 |
+//! | [`dsstgat`] | the whole int8 DS-STGAT on one window (embedding → GAT → GRU → pooling → class and indicator heads, and the sensor head on the window-mean features) and its float reference | eqs. 4–9, 12–13 |
 //! | [`model_file`] | the postcard model file: header, CRC-32, fixed-capacity payload, checked decoding into the [`quant`] kernels | §4.2 (the trained DS-STGAT) |
 //! | [`rng`] | seeded PRNG (xoshiro128++), Gaussian and Poisson draws | §5.2 random excitation |
 //!

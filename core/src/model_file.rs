@@ -52,7 +52,7 @@
 //! 7. dimensions: within the maxima below, names/prior/blob lengths match them
 //!                                               else ModelDimensions
 //! 8. values: scales finite > 0, codes ≠ −128, |bias| ≤ 2^30 − 1, requantization
-//!    ratios representable, feature std > 0, graph and physical parameters valid
+//!    ratios representable, the sensor head's output scale the classifier's, feature std > 0, graph and physical parameters valid
 //!                                               else ModelValue
 //! ```
 //!
@@ -98,7 +98,7 @@
 //! 105 KB of stack on the Cortex-M4F, every kernel moved several times).
 //! [`ModelFile::linear_into`], [`ModelFile::gat_layer_into`],
 //! [`ModelFile::gru_cell_into`] fill kernels where they live, and
-//! [`crate::dsstgat::DsStgat::load`] builds the whole network that way: 1.7 KiB of
+//! [`crate::dsstgat::DsStgat::load`] builds the whole network that way: 1.6 KiB of
 //! stack on the same MCU (each builder in its own frame), so decoded model, network
 //! and scratch fit 32 KiB of RAM (the scratch taking the decoded model's place once
 //! the network is built, `firmware-probe/`).
@@ -1368,6 +1368,12 @@ impl ModelFile {
         check_codes(&g.a_src, "gat.a_src: a code is -128")?;
         check_codes(&g.a_dst, "gat.a_dst: a code is -128")?;
         check_bias(&g.bias, "gat.bias: a bias exceeds 2^30 - 1")?;
+        // The sensor head's i32 logits are added to the classifier's as they are.
+        if self.sensor_head.output_scale != self.classifier.output_scale {
+            return Err(Error::ModelValue(
+                "sensor_head: output scale != the classifier's (their logits are added)",
+            ));
+        }
         let ind = &self.indicator;
         if ind.mean.iter().any(|m| !m.is_finite())
             || ind.std.iter().any(|s| !(s.is_finite() && *s > 0.0))
@@ -1565,8 +1571,8 @@ impl ModelFile {
     /// # Errors
     /// As [`ModelFile::linear_padded`]. On error `out` is partly overwritten.
     // Not inlined (nor the GAT and GRU builders): inlined into `DsStgat::load`, their
-    // locals added up to 2.2 KiB of stack on the Cortex-M4F; in their own frames the
-    // build peaks at 1.7 KiB (`firmware-probe/`).
+    // locals added up to 2 212 B of stack on the Cortex-M4F; in their own frames the
+    // build peaks at 1 668 B (`firmware-probe/`).
     #[inline(never)]
     pub fn linear_into<const IN: usize, const OUT: usize>(
         &self,
@@ -2202,6 +2208,12 @@ mod tests {
             Error::ModelValue("gru.w_z: a scale is not finite and > 0")
         );
         assert!(value(rejected(&m, |b| b.classifier.output_scale = -1.0)));
+        assert_eq!(
+            rejected(&m, |b| b.sensor_head.output_scale *= 2.0),
+            Error::ModelValue(
+                "sensor_head: output scale != the classifier's (their logits are added)"
+            )
+        );
         assert!(value(rejected(&m, |b| b.gat.logit_scale = f32::INFINITY)));
         assert!(value(rejected(&m, |b| b.gat.a_src_scale = 0.0)));
         assert_eq!(

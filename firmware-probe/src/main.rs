@@ -36,7 +36,7 @@ type NetOutput = Output<16, 8>;
 static MODEL_BYTES: &[u8] = include_bytes!("../../models/dsstgat-cwru-tb.ptm");
 
 // ---------------------------------------------------------------------------------
-// Storage the firmware owns. All three are zero-initialised, so they live in .bss.
+// Storage the firmware owns: `ARENA` (zeroed, .bss) and `NET` (.data, see it).
 // ---------------------------------------------------------------------------------
 
 /// The decoded model and the inference scratch share one region: the model is read

@@ -1,7 +1,8 @@
 //! The DS-STGAT in burn (paper §4.2 and §4.4, eqs. 4–8 and 12–13): node embedding, a
 //! graph-attention layer per step over the core's dynamic graphs, a GRU over the
 //! steps per node, attention pooling over the (step, node) pairs of the readout
-//! nodes, a compression layer, and two heads (class and physical indicators).
+//! nodes, a compression layer, two heads (class and physical indicators), and the
+//! sensor head, whose logits add to the class head's.
 //!
 //! ```text
 //! h⁰_ti   = ReLU(W_in x_ti + b_in)                                 embedding (eq. 9's f_embed)
@@ -98,7 +99,10 @@ pub const MASKED_LOGIT: f32 = -1e9;
 ///   Every feature does not fit: the head's weights are stored twice on an MCU (the
 ///   decoded file and the network), and with 28 features per sensor the firmware
 ///   probe needs about 34 KiB of RAM, over the 32 KiB part it targets; the band
-///   shares fit (`pumptwin_core::dsstgat::SENSOR_HEAD_FEATURES`).
+///   shares fit (`pumptwin_core::dsstgat::SENSOR_HEAD_FEATURES`);
+/// - `γ` again with the band shares (`SRC=trainer/src/model.rs PROTOCOLS="time-block-dev
+///   cross-load-dev0" bash scripts/dev-sweep.sh SENSOR_HEAD_WEIGHT "2.0 8.0" "42 7 1 3"`,
+///   `out/dev-sweep/SENSOR_HEAD_WEIGHT/summary.txt`): 2 95.8, **4 96.3**, 8 95.9.
 ///
 /// The time means are also why the noise columns rose most (`time-block-dev` −4 dB
 /// 88.6 → 98.8 %): the mean of eight segments' features has a smaller spread under

@@ -8,6 +8,8 @@
 //! L = Σ_b w_{y_b}·CE_b / Σ_b w_{y_b} + λ_ind·mean‖F_b − F*_b‖² + λ_reg·‖θ‖²
 //!     + λ_rec·L_rec   (+ λ_phy·L_phy + λ_map·L_map with the co-adaptation heads)
 //! CE_b = −log softmax(logits_b)[y_b]                               (14)
+//!        (DS-STGAT: the network's logits and the sensor head's, each its own CE,
+//!        summed; the class logits are network + γ·head, `model::SENSOR_HEAD_WEIGHT`)
 //! w_c  = n / (C · n_c)   (class weights; 1 for every class when off)
 //! ```
 //!
@@ -314,10 +316,7 @@ impl TrainConfig {
             .with_hidden(self.hidden)
             .with_compressed(self.compressed)
             .with_indicators(N_INDICATORS)
-            .with_nodes(match self.node_set() {
-                Ok(NodeSet::Derived) => crate::dataset::N_DERIVED_NODES,
-                _ => N_NODES,
-            })
+            .with_nodes(self.node_set().map_or(N_NODES, NodeSet::count))
     }
 }
 
@@ -1319,6 +1318,8 @@ pub fn train<const N: usize>(
                     node_dropout: cfg.node_dropout,
                     ..cfg.clone()
                 };
+                // Its sensor head learns the simulated hypotheses too and is dropped with
+                // the classifier (the printed accuracy is of the combined logits).
                 let pre = pre_cfg.model_config(SIM_CLASSES.len()).init(&device);
                 let mut quiet = |_: &EpochStats| {};
                 let mut none = |_: &DsStgat, _: &Option<PhysicsHeads>| None;
