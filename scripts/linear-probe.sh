@@ -9,7 +9,9 @@
 # `pumptwin features` per record (release build) and prints, per protocol, the
 # accuracy of a logistic regression (scikit-learn, C = 1, standardized inputs) on the
 # window-mean features: one weight row per sensor (DE, DE+FE, all three), one row
-# shared by the sensors, and per sensor on the sixteen log band shares alone.
+# shared by the sensors, and per sensor on the sixteen log band shares alone; then the
+# same probe on `fault-size` (fault type from the 0.007" and 0.021" records, tested on
+# 0.014") with all features, the envelope features, or the band shares.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 venv=.venv-probe

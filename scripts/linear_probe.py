@@ -61,3 +61,36 @@ for name, train, test in [("cross-load", "012", "3"), ("cross-load-dev0", "12", 
     a = [accuracy(tr, te, v) for v in (per_sensor([0]), per_sensor([0, 1]), per_sensor([0, 1, 2]),
                                          shared, per_sensor([0, 1, 2], bands))]
     print(f"{name:<16} | {a[0]:6.2f}         | {a[1]:6.2f} | {a[2]:6.2f}   | {a[3]:6.2f}                | {a[4]:6.2f}")
+
+# fault-size: fault type (IR, B, OR) from the 0.007" and 0.021" records, tested on 0.014"
+envelope = [i for i, n in enumerate(names) if n.startswith("env_") and n != "env_kurtosis"]
+envelope.append(names.index("env_kurtosis"))
+fs_tr = [(x, r["fault_type"]) for x, r in feats.values() if r["fault_size_in"] in ("0.007", "0.021")]
+fs_te = [(x, r["fault_type"], r) for x, r in feats.values() if r["fault_size_in"] == "0.014"]
+
+
+def fs_accuracy(view):
+    classes = sorted({c for _, c in fs_tr})
+    xtr = np.concatenate([view(x) for x, _ in fs_tr])
+    ytr = np.concatenate([[classes.index(c)] * len(x) for x, c in fs_tr])
+    s = StandardScaler().fit(xtr)
+    m = LogisticRegression(C=1.0, max_iter=5000).fit(s.transform(xtr), ytr)
+    by = {}
+    for x, c, r in fs_te:
+        ok = int((m.predict(s.transform(view(x))) == classes.index(c)).sum())
+        k = r["fault_type"] + r["fault_size_in"][2:]
+        a, n = by.get(k, (0, 0))
+        by[k] = (a + ok, n + len(x))
+    total = 100.0 * sum(a for a, _ in by.values()) / sum(n for _, n in by.values())
+    return total, {k: f"{100.0 * a / n:.0f}" for k, (a, n) in sorted(by.items())}
+
+
+print()
+print("fault-size (0.007 + 0.021 -> 0.014), per sensor | accuracy % | per class % named")
+for label, nodes, fi in [("all features, DE", [0], None), ("all features, DE+FE+BA", [0, 1, 2], None),
+                         ("envelope features, DE", [0], envelope),
+                         ("envelope features, DE+FE+BA", [0, 1, 2], envelope),
+                         ("band shares, DE", [0], bands), ("band shares, DE+FE+BA", [0, 1, 2], bands),
+                         ("envelope + band shares, DE", [0], envelope + bands)]:
+    acc, by = fs_accuracy(per_sensor(nodes, fi))
+    print(f"{label:<30} | {acc:6.2f} | {by}")
