@@ -429,6 +429,13 @@ mod tests {
         t.into_data().try_into_vec::<f32>().unwrap()
     }
 
+    /// A node mask as the model's 1.0 (present) / 0.0 (absent) values.
+    fn ones<'a>(mask: impl IntoIterator<Item = &'a bool>) -> Vec<f32> {
+        mask.into_iter()
+            .map(|&m| if m { 1.0 } else { 0.0 })
+            .collect()
+    }
+
     /// A deterministic pseudo-random vector.
     fn ramp(n: usize, k: f32) -> Vec<f32> {
         (0..n)
@@ -445,15 +452,13 @@ mod tests {
             [false, true, true],
             [false, false, true],
         ];
-        let flat: Vec<f32> = masks
-            .iter()
-            .flatten()
-            .map(|&m| if m { 1.0 } else { 0.0 })
-            .collect();
-        let got = values(readout_mask(tensor(flat, [4, 3], &device)));
+        let got = values(readout_mask(tensor(
+            ones(masks.iter().flatten()),
+            [4, 3],
+            &device,
+        )));
         for (k, m) in masks.iter().enumerate() {
-            let want = pumptwin_core::graph::NodeMask(*m).readout();
-            let want: Vec<f32> = want.0.iter().map(|&m| if m { 1.0 } else { 0.0 }).collect();
+            let want = ones(&pumptwin_core::graph::NodeMask(*m).readout().0);
             assert_eq!(got[3 * k..3 * k + 3], want[..], "mask {m:?}");
         }
     }
@@ -472,14 +477,9 @@ mod tests {
         ];
         let b = masks.len();
         let x = ramp(b * T * N * F, 0.37);
-        let flat: Vec<f32> = masks
-            .iter()
-            .flatten()
-            .map(|&m| if m { 1.0 } else { 0.0 })
-            .collect();
         let got = values(sensor_head_input(
             tensor(x.clone(), [b, T, N, F], &device),
-            tensor(flat, [b, N], &device),
+            tensor(ones(masks.iter().flatten()), [b, N], &device),
         ));
         let e = SENSOR_HEAD_FEATURES.len();
         assert_eq!(got.len(), b * N * e);

@@ -457,25 +457,6 @@ pub fn class_weights(labels: &[i64], classes: usize) -> Vec<f32> {
         .collect()
 }
 
-/// The loss terms of one batch: `(total, weighted CE, indicator MSE)`.
-///
-/// # Shapes
-/// - `logits`: `[B, C]`; `indicators`, `targets`: `[B, 4]`; `labels`: `[B]`
-/// - `sample_weights`: `[B]`, summing to 1
-pub fn loss_terms(
-    logits: Tensor<2>,
-    indicators: Tensor<2>,
-    labels: Tensor<1, Int>,
-    targets: Tensor<2>,
-    sample_weights: Tensor<1>,
-    lambda_indicator: f64,
-) -> (Tensor<1>, Tensor<1>, Tensor<1>) {
-    let ce = weighted_ce(logits, labels, sample_weights);
-    let mse = (indicators - targets).square().mean(); // eq. 13 regression
-    let total = ce.clone() + mse.clone().mul_scalar(lambda_indicator);
-    (total, ce, mse)
-}
-
 /// Default weight `λ_rec` of the record-alignment term ([`record_alignment`]).
 ///
 /// Chosen on the development protocols only (`SRC=trainer/src/training.rs
@@ -571,6 +552,28 @@ fn weighted_ce(logits: Tensor<2>, labels: Tensor<1, Int>, sample_weights: Tensor
     let logp = log_softmax(logits, 1); // [B, C]
     let picked = logp.gather(1, labels.reshape([b, 1])).reshape([b]); // [B]  log ŷ_y
     (picked * sample_weights).sum().neg()
+}
+
+/// The class loss of a batch: the weighted CE of `logits`, or, for the DS-STGAT (its
+/// `parts`), the sum of its network's CE and its sensor head's — each learns the
+/// classes on its own ([`crate::model::SENSOR_HEAD_WEIGHT`]).
+///
+/// # Shapes
+/// - `logits` and each part: `[B, C]`; `labels`: `[B]`; `sample_weights`: `[B]`,
+///   summing to 1
+fn class_loss(
+    logits: Tensor<2>,
+    parts: Option<(Tensor<2>, Tensor<2>)>,
+    labels: Tensor<1, Int>,
+    sample_weights: Tensor<1>,
+) -> Tensor<1> {
+    match parts {
+        Some((network, sensor)) => {
+            weighted_ce(network, labels.clone(), sample_weights.clone())
+                + weighted_ce(sensor, labels, sample_weights)
+        }
+        None => weighted_ce(logits, labels, sample_weights),
+    }
 }
 
 /// `L_phy` (eq. 11): mean squared error of the predicted node spectrum shapes over
@@ -909,16 +912,9 @@ pub fn mean_loss(
         let w = normalized_weights(chunk, ds, &weights);
         let w = Tensor::from_data(TensorData::new(w, [chunk.len()]), device);
         let out = model.forward(b.x, b.adj, b.mask);
-        let (network, sensor) = out.parts;
-        let (loss, _, _) = loss_terms(
-            network,
-            out.indicators,
-            b.labels.clone(),
-            b.indicators,
-            w.clone(),
-            cfg.lambda_indicator,
-        );
-        let loss = loss + weighted_ce(sensor, b.labels, w);
+        let ce = class_loss(out.logits, Some(out.parts), b.labels, w);
+        let mse = (out.indicators - b.indicators).square().mean(); // eq. 13 regression
+        let loss = ce + mse.mul_scalar(cfg.lambda_indicator);
         sum += f64::from(loss.into_scalar::<f32>()) * chunk.len() as f64;
     }
     sum / ds.len().max(1) as f64
@@ -1038,14 +1034,7 @@ fn replica_step<M: Net>(
         .filter(|(p, l)| p == *l)
         .count();
     let mut sums = [0.0f64; 6];
-    let ce = match out.parts {
-        // The network and the sensor head each learn the classes on their own.
-        Some((network, sensor)) => {
-            weighted_ce(network, batch.labels.clone(), weights.clone())
-                + weighted_ce(sensor, batch.labels.clone(), weights)
-        }
-        None => weighted_ce(out.logits, batch.labels.clone(), weights),
-    };
+    let ce = class_loss(out.logits, out.parts, batch.labels.clone(), weights);
     let mut loss = ce.clone();
     sums[1] = f64::from(ce.into_scalar::<f32>());
     if let Some((between, total)) = align {
