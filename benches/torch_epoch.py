@@ -3,7 +3,7 @@
 burn-vs-PyTorch epoch-time comparison (benches/torch_vs_burn.sh runs both).
 
 Same shapes, same data, same epochs, same loss (class-weighted CE of the network and
-of the sensor head + lambda_ind * MSE of the indicator head), Adam with coupled L2 (burn's WeightDecay), the same cosine
+of the sensor head's two experts + lambda_ind * MSE of the indicator head), Adam with coupled L2 (burn's WeightDecay), the same cosine
 learning-rate schedule, batches of 64, node dropout 0.2. Prints one JSON line with
 the mean seconds per epoch of optimizer steps (what burn's history.json records).
 """
@@ -66,11 +66,15 @@ class Gru(nn.Module):
 
 
 class DsStgat(nn.Module):
-    def __init__(self, f, c, n, sensor_features, sensor_weight, h=32, zc=16, ind=4):
+    def __init__(self, f, c, n, sensor_features, sensor_spectral, sensor_weight, kinematic_weight,
+                 h=32, zc=16, ind=4):
         super().__init__()
         self.sensor_features = torch.tensor(sensor_features)
+        self.spectral = sensor_spectral
         self.sensor_weight = sensor_weight
-        self.sensor = nn.Linear(n * len(sensor_features), c)
+        self.kinematic_weight = kinematic_weight
+        self.sensor = nn.Linear(n * sensor_spectral, c)
+        self.kinematic = nn.Linear(n * (len(sensor_features) - sensor_spectral), c)
         self.embed = nn.Linear(f, h)
         self.gat = Gat(h, h)
         self.gru = Gru(h, h)
@@ -82,9 +86,11 @@ class DsStgat(nn.Module):
     def forward(self, x, adj, mask):
         b, t, n, _ = x.shape
         # Sensor head: the window mean of each present node's features, one weight row
-        # per node (pumptwin_core::dsstgat::sensor_head_input).
+        # per node (pumptwin_core::dsstgat::sensor_head_input), in two experts: the
+        # spectral features of each slot and the kinematic ones (model::expert_inputs).
         xbar = x.index_select(3, self.sensor_features).mean(1) * mask.unsqueeze(2)
-        sensor = self.sensor(xbar.reshape(b, -1))
+        sensor = self.sensor(xbar[:, :, :self.spectral].reshape(b, -1))
+        kinematic = self.kinematic(xbar[:, :, self.spectral:].reshape(b, -1))
         h0 = F.relu(self.embed(x))
         d = h0.shape[-1]
         mask_bt = mask.unsqueeze(1).expand(b, t, n).reshape(b * t, n)
@@ -102,7 +108,8 @@ class DsStgat(nn.Module):
         g = (beta.unsqueeze(1) @ s.reshape(b, t * n, d)).reshape(b, d)
         z = self.compress(g)
         network = self.classifier(z)
-        return network + self.sensor_weight * sensor, network, sensor, self.indicator(z)
+        logits = network + self.sensor_weight * sensor + self.kinematic_weight * kinematic
+        return logits, network, sensor, kinematic, self.indicator(z)
 
 
 def main():
@@ -116,8 +123,8 @@ def main():
     labels = torch.from_numpy(np.fromfile(f"{root}/labels.i64", dtype="<i8"))
     cw = torch.from_numpy(np.fromfile(f"{root}/class_weights.f32", dtype="<f4"))
     torch.manual_seed(42)
-    model = DsStgat(f, sh["classes"], n, sh["sensor_features"], sh["sensor_weight"],
-                    sh["hidden"], sh["compressed"], sh["indicators"])
+    model = DsStgat(f, sh["classes"], n, sh["sensor_features"], sh["sensor_spectral"],
+                    sh["sensor_weight"], sh["kinematic_weight"], sh["hidden"], sh["compressed"], sh["indicators"])
     epochs = int(sys.argv[2]) if len(sys.argv) > 2 else sh["epochs"]
     bs = sh["batch_size"]
     lr0, lr1 = sh["learning_rate"], sh["learning_rate"] * sh["final_lr_fraction"]
@@ -135,14 +142,14 @@ def main():
             m = mask[idx] * (torch.rand(len(idx), n, generator=gen) >= sh["node_dropout"]).float()
             empty = m.sum(1) == 0
             m[empty] = mask[idx][empty]
-            logits, network, sensor, pi = model(x[idx], adj[idx], m)
+            logits, network, sensor, kinematic, pi = model(x[idx], adj[idx], m)
             sw = cw[labels[idx]]
             sw = sw / sw.sum()
 
             def wce(lg):
                 return -(F.log_softmax(lg, 1).gather(1, labels[idx].unsqueeze(1)).squeeze(1) * sw).sum()
 
-            ce = wce(network) + wce(sensor)
+            ce = wce(network) + wce(sensor) + wce(kinematic)
             loss = ce + sh["lambda_indicator"] * (pi - ind[idx]).pow(2).mean()
             correct += (logits.argmax(1) == labels[idx]).sum().item()
             p = step / max(total - 1, 1)

@@ -11,7 +11,9 @@
 # window-mean features: one weight row per sensor (DE, DE+FE, all three), one row
 # shared by the sensors, and per sensor on the sixteen log band shares alone; then the
 # same probe on `fault-size` (fault type from the 0.007" and 0.021" records, tested on
-# 0.014") with all features, the envelope features, or the band shares.
+# 0.014") with all features, the envelope features, or the band shares; last, the
+# fault-size development splits (one end size to the other), where the sensor head's
+# kinematic expert was chosen.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 venv=.venv-probe

@@ -94,3 +94,49 @@ for label, nodes, fi in [("all features, DE", [0], None), ("all features, DE+FE+
                          ("envelope + band shares, DE", [0], envelope + bands)]:
     acc, by = fs_accuracy(per_sensor(nodes, fi))
     print(f"{label:<30} | {acc:6.2f} | {by}")
+
+# The development splits inside fault-size's training side (fault-size-dev7 and
+# fault-size-dev21: fault type from one end size, named on the other; 0.014" unused):
+# one regression per feature set, and two regressions (band shares, envelope) whose
+# decision values add — the sensor head's two experts (trainer/src/model.rs,
+# KINEMATIC_HEAD_WEIGHT).
+
+
+def size_model(train_size, experts):
+    classes = ["B", "IR", "OR"]
+    tr = [(x, r["fault_type"]) for x, r in feats.values() if r["fault_size_in"] == train_size]
+    models = []
+    for view in experts:
+        xtr = np.concatenate([view(x) for x, _ in tr])
+        ytr = np.concatenate([[classes.index(c)] * len(x) for x, c in tr])
+        s = StandardScaler().fit(xtr)
+        m = LogisticRegression(C=1.0, max_iter=5000).fit(s.transform(xtr), ytr)
+        models.append((view, s, m))
+    return classes, models
+
+
+def size_accuracy(train_size, test_size, experts):
+    classes, models = size_model(train_size, experts)
+    ok = n = 0
+    for x, r in feats.values():
+        if r["fault_size_in"] != test_size:
+            continue
+        z = sum(m.decision_function(s.transform(view(x))) for view, s, m in models)
+        ok += int((z.argmax(1) == classes.index(r["fault_type"])).sum())
+        n += len(x)
+    return 100.0 * ok / n
+
+
+print()
+print("fault-size development splits, per sensor | -dev7 (0.021 -> 0.007) | -dev21 (0.007 -> 0.021) | mean")
+all3 = [0, 1, 2]
+for label, experts in [("envelope features, DE", [per_sensor([0], envelope)]),
+                       ("envelope features, DE+FE+BA", [per_sensor(all3, envelope)]),
+                       ("band shares, DE", [per_sensor([0], bands)]),
+                       ("band shares, DE+FE+BA", [per_sensor(all3, bands)]),
+                       ("envelope + band shares, DE+FE+BA", [per_sensor(all3, envelope + bands)]),
+                       ("two experts: bands | envelope, DE+FE+BA",
+                        [per_sensor(all3, bands), per_sensor(all3, envelope)])]:
+    a = size_accuracy("0.021", "0.007", experts)
+    b = size_accuracy("0.007", "0.021", experts)
+    print(f"{label:<42} | {a:6.2f} | {b:6.2f} | {(a + b) / 2:6.2f}")

@@ -1,12 +1,12 @@
 //! The model file: one postcard-encoded file with everything the edge needs to run a
 //! trained DS-STGAT, decoded without allocation into fixed-capacity buffers.
 //!
-//! # Layout (format version 7)
+//! # Layout (format version 8)
 //!
 //! | offset | bytes | field | encoding |
 //! |---|---|---|---|
 //! | 0 | 8 | magic [`MAGIC`] = `PTWINMDL` | ASCII |
-//! | 8 | 2 | format version [`FORMAT_VERSION`] = 7 | u16, little-endian |
+//! | 8 | 2 | format version [`FORMAT_VERSION`] = 8 | u16, little-endian |
 //! | 10 | 4 | payload length `L` | u32, little-endian |
 //! | 14 | `L` | payload: a [`ModelFile`] | postcard 1.x |
 //! | 14 + `L` | 4 | CRC-32 of the payload (see [`crc32`]) | u32, little-endian |
@@ -130,7 +130,10 @@
 //! (`graph::NodeMask::readout`), so a version-5 file's pooling and heads were trained
 //! for a readout over every node and would be run with the wrong one. Version 7: the
 //! sensor head joined the payload (`crate::dsstgat`, its logits add to the
-//! classifier's), so a version-6 file lacks a layer the network needs.
+//! classifier's), so a version-6 file lacks a layer the network needs. Version 8:
+//! the sensor head reads the five envelope features of each sensor after its sixteen
+//! band shares (`crate::dsstgat::SENSOR_HEAD_FEATURES`: 21 per slot, 63 inputs), so a
+//! version-7 file's head has the wrong width.
 
 use heapless::{String, Vec};
 use serde::{Deserialize, Serialize};
@@ -150,7 +153,7 @@ use crate::simulator::BearingParams;
 /// The first 8 bytes of every model file.
 pub const MAGIC: [u8; 8] = *b"PTWINMDL";
 /// The format version this core writes and reads.
-pub const FORMAT_VERSION: u16 = 7;
+pub const FORMAT_VERSION: u16 = 8;
 /// Bytes before the payload: magic, version, payload length.
 pub const HEADER_LEN: usize = 14;
 /// Bytes after the payload: the CRC-32.
@@ -2155,7 +2158,7 @@ mod tests {
         assert_eq!(decode(&f), Err(Error::ModelMagic));
 
         let mut f = file.clone();
-        for old in [1u16, 2, 3, 4, 5, 6, 8] {
+        for old in [1u16, 2, 3, 4, 5, 6, 7, 9] {
             f[8..10].copy_from_slice(&old.to_le_bytes());
             assert_eq!(
                 decode(&f),

@@ -57,6 +57,8 @@ fn main() -> anyhow::Result<()> {
         "lambda_reg": cfg.lambda_reg, "node_dropout": cfg.node_dropout,
         "sensor_features": pumptwin_core::dsstgat::SENSOR_HEAD_FEATURES,
         "sensor_weight": pumptwin_trainer::model::SENSOR_HEAD_WEIGHT,
+        "sensor_spectral": pumptwin_core::dsstgat::SENSOR_HEAD_SPECTRAL,
+        "kinematic_weight": pumptwin_trainer::model::KINEMATIC_HEAD_WEIGHT,
     });
     std::fs::write(
         out.join("shapes.json"),

@@ -27,7 +27,8 @@ use burn::tensor::{Device, Tensor};
 use pumptwin_core::bearing::BearingGeometry;
 use pumptwin_core::dsstgat::{
     DsStgat, DsStgatF32, InferenceModel, InferenceScratch, Output, OutputF32, Ranges, ScratchF32,
-    MODEL_CLASSES, MODEL_INDICATORS, SENSOR_HEAD_DIM, SENSOR_HEAD_INPUTS,
+    MODEL_CLASSES, MODEL_INDICATORS, SENSOR_HEAD_DIM, SENSOR_HEAD_INPUTS, SENSOR_HEAD_KINEMATIC,
+    SENSOR_HEAD_NODES, SENSOR_HEAD_SPECTRAL,
 };
 use pumptwin_core::graph::{Adjacency, NodeMask};
 use pumptwin_core::model_file::{self, GraphParts, ModelFile, Name, Text};
@@ -195,37 +196,58 @@ pub fn float_reference<const H: usize>(
         },
         classifier: folded_head::<H, MODEL_CLASSES>(&m.compress, &m.classifier)?,
         indicator: folded_head::<H, MODEL_INDICATORS>(&m.compress, &m.indicator)?,
-        sensor: sensor_head::<MODEL_CLASSES>(&m.sensor)?,
+        sensor: sensor_head::<MODEL_CLASSES>(&m.sensor, &m.kinematic)?,
     })
 }
 
-/// The sensor head as the core's layer: burn's `[N·E, C]` weight and its bias, times
-/// `γ` ([`crate::model::SENSOR_HEAD_WEIGHT`], folded in so the core adds the logits
-/// as they are), in the first `N` of the core's `SENSOR_HEAD_NODES` slots (the rest
-/// zero), padded to `OUT` rows.
+/// The sensor head as the core's layer: its two experts' burn weights (`[N·E_s, C]`
+/// spectral, `[N·E_k, C]` kinematic) and biases, each times its weight `γ`
+/// ([`crate::model::SENSOR_HEAD_WEIGHT`], [`crate::model::KINEMATIC_HEAD_WEIGHT`],
+/// folded in so the core adds the logits as they are), interleaved into the core's
+/// node-major slots (a slot: the spectral features, then the kinematic ones) in the
+/// first `N` of its `SENSOR_HEAD_NODES` slots (the rest zero), padded to `OUT` rows.
+/// A sum of two linear maps on disjoint inputs is one linear map on both.
 fn sensor_head<const OUT: usize>(
-    head: &burn::nn::Linear,
+    spectral: &burn::nn::Linear,
+    kinematic: &burn::nn::Linear,
 ) -> Result<LinearF32<SENSOR_HEAD_INPUTS, OUT>> {
-    let (w, b) = linear_parts(head)?;
-    ensure!(
-        w.rows <= SENSOR_HEAD_INPUTS && w.rows % SENSOR_HEAD_DIM == 0,
-        "sensor head has {} inputs: not a whole number of nodes of {SENSOR_HEAD_DIM} \
-         features within the core's {SENSOR_HEAD_INPUTS}",
-        w.rows
-    );
-    ensure!(
-        w.cols <= OUT,
-        "sensor head has {} outputs, at most {OUT} fit",
-        w.cols
-    );
-    let gamma = crate::model::SENSOR_HEAD_WEIGHT;
     let mut lw = [[0.0f32; SENSOR_HEAD_INPUTS]; OUT];
     let mut lb = [0.0f32; OUT];
-    for o in 0..w.cols {
-        for (k, v) in lw[o].iter_mut().take(w.rows).enumerate() {
-            *v = gamma * w.at(k, o);
+    for (head, offset, dim, gamma, name) in [
+        (
+            spectral,
+            0,
+            SENSOR_HEAD_SPECTRAL,
+            crate::model::SENSOR_HEAD_WEIGHT,
+            "spectral",
+        ),
+        (
+            kinematic,
+            SENSOR_HEAD_SPECTRAL,
+            SENSOR_HEAD_KINEMATIC,
+            crate::model::KINEMATIC_HEAD_WEIGHT,
+            "kinematic",
+        ),
+    ] {
+        let (w, b) = linear_parts(head)?;
+        ensure!(
+            w.rows <= SENSOR_HEAD_NODES * dim && w.rows % dim == 0,
+            "sensor head's {name} expert has {} inputs: not a whole number of nodes of \
+             {dim} features within the core's {SENSOR_HEAD_NODES} slots",
+            w.rows
+        );
+        ensure!(
+            w.cols <= OUT,
+            "sensor head's {name} expert has {} outputs, at most {OUT} fit",
+            w.cols
+        );
+        for o in 0..w.cols {
+            for k in 0..w.rows {
+                let (node, f) = (k / dim, k % dim);
+                lw[o][node * SENSOR_HEAD_DIM + offset + f] = gamma * w.at(k, o);
+            }
+            lb[o] += gamma * b[o];
         }
-        lb[o] = gamma * b[o];
     }
     Ok(LinearF32 { w: lw, b: lb })
 }

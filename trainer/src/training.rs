@@ -555,22 +555,24 @@ fn weighted_ce(logits: Tensor<2>, labels: Tensor<1, Int>, sample_weights: Tensor
 }
 
 /// The class loss of a batch: the weighted CE of `logits`, or, for the DS-STGAT (its
-/// `parts`), the sum of its network's CE and its sensor head's — each learns the
-/// classes on its own ([`crate::model::SENSOR_HEAD_WEIGHT`]).
+/// `parts`), the sum of its network's CE and its sensor head's two experts' — each
+/// learns the classes on its own ([`crate::model::SENSOR_HEAD_WEIGHT`],
+/// [`crate::model::KINEMATIC_HEAD_WEIGHT`]).
 ///
 /// # Shapes
 /// - `logits` and each part: `[B, C]`; `labels`: `[B]`; `sample_weights`: `[B]`,
 ///   summing to 1
 fn class_loss(
     logits: Tensor<2>,
-    parts: Option<(Tensor<2>, Tensor<2>)>,
+    parts: Option<(Tensor<2>, Tensor<2>, Tensor<2>)>,
     labels: Tensor<1, Int>,
     sample_weights: Tensor<1>,
 ) -> Tensor<1> {
     match parts {
-        Some((network, sensor)) => {
+        Some((network, spectral, kinematic)) => {
             weighted_ce(network, labels.clone(), sample_weights.clone())
-                + weighted_ce(sensor, labels, sample_weights)
+                + weighted_ce(spectral, labels.clone(), sample_weights.clone())
+                + weighted_ce(kinematic, labels, sample_weights)
         }
         None => weighted_ce(logits, labels, sample_weights),
     }
@@ -634,9 +636,10 @@ pub struct NetOutput {
     pub embedding: Tensor<2>,
     /// Final node states `[B, N, H]` (DS-STGAT only; the spectral head's input).
     pub node_states: Option<Tensor<3>>,
-    /// The DS-STGAT's network and sensor-head logits, each trained on its own
-    /// cross-entropy (`logits` is their weighted sum); `None` for the baselines.
-    pub parts: Option<(Tensor<2>, Tensor<2>)>,
+    /// The DS-STGAT's network logits and its sensor head's two experts', each trained
+    /// on its own cross-entropy (`logits` is their weighted sum); `None` for the
+    /// baselines.
+    pub parts: Option<(Tensor<2>, Tensor<2>, Tensor<2>)>,
 }
 
 impl NetOutput {

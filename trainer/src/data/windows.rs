@@ -14,6 +14,8 @@
 //! | `time-block-dev` | `time-block`'s training side, its first part | its last 30 %, after the same gap | 10 |
 //! | `cross-load-dev` | 0, 1 HP records | 2 HP records | 9 faults |
 //! | `cross-load-dev0` | 1, 2 HP records | 0 HP records | 9 faults |
+//! | `fault-size-dev7` | 0.021" records, all loads | 0.007" records | IR, B, OR |
+//! | `fault-size-dev21` | 0.007" records, all loads | 0.021" records | IR, B, OR |
 //!
 //! The `-dev` protocols are where settings (feature constants, loss weights, epochs)
 //! are chosen: they never see a test window of `time-block` or `cross-load`, so those
@@ -22,6 +24,12 @@
 //! 99–100 % on it against 87–96 % on `cross-load`): extrapolating to the other end of
 //! the load range, 0 HP from 1–2 HP, is as hard as 3 HP from 0–2 HP (90.6–96.4 % at
 //! seeds 7 and 42).
+//!
+//! `fault-size` has no middle size inside its training side to hold out, so its two
+//! development splits hold out one end each: fault type learned on one defect size and
+//! named on the other. They ask the same question — does the evidence carry across
+//! defect sizes? — on records `fault-size` never tests (0.014" is unused), and a
+//! setting is judged on their mean, both directions of the extrapolation.
 //!
 //! `time-block` alone still shares the record (same run, same sensor mounting) between
 //! the sides; the two record-level protocols ask whether the model generalises to an
@@ -131,6 +139,12 @@ pub enum Protocol {
     /// Development split inside `cross-load`'s training side: 1–2 HP train, 0 HP
     /// test (a load shift as hard as `cross-load`'s). Never touches a 3 HP record.
     CrossLoadDev0,
+    /// Development split inside `fault-size`'s training side: fault type from the
+    /// 0.021" records, tested on the 0.007" ones. Never touches a 0.014" record.
+    FaultSizeDev7,
+    /// Development split inside `fault-size`'s training side: fault type from the
+    /// 0.007" records, tested on the 0.021" ones. Never touches a 0.014" record.
+    FaultSizeDev21,
 }
 
 impl Protocol {
@@ -143,20 +157,24 @@ impl Protocol {
 
     /// The development protocols: settings are chosen on these, so that the
     /// figures of [`Protocol::ALL`] stay measurements on data nothing was tuned on.
-    pub const DEV: [Protocol; 3] = [
+    pub const DEV: [Protocol; 5] = [
         Protocol::TimeBlockDev,
         Protocol::CrossLoadDev,
         Protocol::CrossLoadDev0,
+        Protocol::FaultSizeDev7,
+        Protocol::FaultSizeDev21,
     ];
 
     /// Every protocol the CLI accepts.
-    pub const EVERY: [Protocol; 6] = [
+    pub const EVERY: [Protocol; 8] = [
         Protocol::TimeBlock,
         Protocol::CrossLoad,
         Protocol::FaultSize,
         Protocol::TimeBlockDev,
         Protocol::CrossLoadDev,
         Protocol::CrossLoadDev0,
+        Protocol::FaultSizeDev7,
+        Protocol::FaultSizeDev21,
     ];
 
     /// The protocol's name as used on the command line and in reports.
@@ -168,6 +186,8 @@ impl Protocol {
             Self::TimeBlockDev => "time-block-dev",
             Self::CrossLoadDev => "cross-load-dev",
             Self::CrossLoadDev0 => "cross-load-dev0",
+            Self::FaultSizeDev7 => "fault-size-dev7",
+            Self::FaultSizeDev21 => "fault-size-dev21",
         }
     }
 
@@ -196,6 +216,14 @@ impl Protocol {
             Self::CrossLoadDev0 => {
                 "development split: 9 fault classes; train on 1-2 HP records, test on 0 HP; \
                  3 HP unused"
+            }
+            Self::FaultSizeDev7 => {
+                "development split: fault types IR/B/OR; train on 0.021\" records, test on \
+                 0.007\"; all loads; 0.014\" unused"
+            }
+            Self::FaultSizeDev21 => {
+                "development split: fault types IR/B/OR; train on 0.007\" records, test on \
+                 0.021\"; all loads; 0.014\" unused"
             }
         }
     }
@@ -365,7 +393,7 @@ pub enum SplitError {
     /// A protocol name that does not exist.
     #[error(
         "unknown protocol `{0}` (expected time-block, cross-load, fault-size, \
-         time-block-dev or cross-load-dev)"
+         time-block-dev, cross-load-dev, cross-load-dev0, fault-size-dev7 or fault-size-dev21)"
     )]
     UnknownProtocol(String),
     /// Samples of a record appear on both sides.
@@ -498,14 +526,37 @@ pub fn cross_load_dev0(records: &[RecordMeta], cfg: &WindowConfig) -> Result<Spl
 
 /// `fault-size`: classes IR, B, OR; 0.007" and 0.021" records train, 0.014" test.
 pub fn fault_size(records: &[RecordMeta], cfg: &WindowConfig) -> Result<Split, SplitError> {
+    by_size(Protocol::FaultSize, records, cfg, &[7, 21], 14)
+}
+
+/// `fault-size-dev7`: fault type from the 0.021" records, tested on 0.007".
+pub fn fault_size_dev7(records: &[RecordMeta], cfg: &WindowConfig) -> Result<Split, SplitError> {
+    by_size(Protocol::FaultSizeDev7, records, cfg, &[21], 7)
+}
+
+/// `fault-size-dev21`: fault type from the 0.007" records, tested on 0.021".
+pub fn fault_size_dev21(records: &[RecordMeta], cfg: &WindowConfig) -> Result<Split, SplitError> {
+    by_size(Protocol::FaultSizeDev21, records, cfg, &[7], 21)
+}
+
+/// Classes IR, B, OR; records of the `train` sizes (mils) train, of `test` test.
+fn by_size(
+    protocol: Protocol,
+    records: &[RecordMeta],
+    cfg: &WindowConfig,
+    train: &[u32],
+    test: u32,
+) -> Result<Split, SplitError> {
     cfg.validate()?;
     let classes: &[&str] = &["IR", "B", "OR"];
-    by_record(Protocol::FaultSize, classes, records, cfg, |r| {
+    by_record(protocol, classes, records, cfg, |r| {
         let label = class_index(classes, r.fault_type.as_str())?;
-        match r.fault_size_mils {
-            7 | 21 => Some((Side::Train, label)),
-            14 => Some((Side::Test, label)),
-            _ => None,
+        if train.contains(&r.fault_size_mils) {
+            Some((Side::Train, label))
+        } else if r.fault_size_mils == test {
+            Some((Side::Test, label))
+        } else {
+            None
         }
     })
 }
@@ -523,6 +574,8 @@ pub fn build_split(
         Protocol::TimeBlockDev => time_block_dev(records, cfg),
         Protocol::CrossLoadDev => cross_load_dev(records, cfg),
         Protocol::CrossLoadDev0 => cross_load_dev0(records, cfg),
+        Protocol::FaultSizeDev7 => fault_size_dev7(records, cfg),
+        Protocol::FaultSizeDev21 => fault_size_dev21(records, cfg),
     }
 }
 
@@ -700,6 +753,8 @@ mod tests {
             (Protocol::TimeBlockDev, Protocol::TimeBlock),
             (Protocol::CrossLoadDev, Protocol::CrossLoad),
             (Protocol::CrossLoadDev0, Protocol::CrossLoad),
+            (Protocol::FaultSizeDev7, Protocol::FaultSize),
+            (Protocol::FaultSizeDev21, Protocol::FaultSize),
         ] {
             let d = build_split(dev, &records, &cfg).expect("dev");
             let o = build_split(outer, &records, &cfg).expect("outer");
@@ -723,6 +778,25 @@ mod tests {
             .iter()
             .all(|(w, _)| (1..=2).contains(&records[w.record].load_hp)));
         assert!(cl0.test.iter().all(|(w, _)| records[w.record].load_hp == 0));
+        for (dev, train, test) in [
+            (Protocol::FaultSizeDev7, 21, 7),
+            (Protocol::FaultSizeDev21, 7, 21),
+        ] {
+            let d = build_split(dev, &records, &cfg).expect("fault-size dev");
+            let size = |w: &WindowRef| records[w.record].fault_size_mils;
+            assert!(d.train.iter().all(|(w, _)| size(w) == train), "{dev}");
+            assert!(d.test.iter().all(|(w, _)| size(w) == test), "{dev}");
+            // Every load and every fault type on both sides.
+            for side in [&d.train, &d.test] {
+                let loads: std::collections::BTreeSet<u8> = side
+                    .iter()
+                    .map(|(w, _)| records[w.record].load_hp)
+                    .collect();
+                let labels: std::collections::BTreeSet<usize> =
+                    side.iter().map(|&(_, l)| l).collect();
+                assert_eq!((loads.len(), labels.len()), (4, 3), "{dev}");
+            }
+        }
         // Per record, the dev test is the last 30 % of the outer training side.
         let tb = build_split(Protocol::TimeBlock, &records, &cfg).expect("tb");
         let tbd = build_split(Protocol::TimeBlockDev, &records, &cfg).expect("tbd");
