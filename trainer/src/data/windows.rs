@@ -931,6 +931,9 @@ mod tests {
                 Protocol::TimeBlockDev => assert_eq!((train_records, test_records), (37, 37)),
                 Protocol::CrossLoadDev => assert_eq!((train_records, test_records), (18, 9)),
                 Protocol::CrossLoadDev0 => assert_eq!((train_records, test_records), (18, 9)),
+                Protocol::FaultSizeDev7 | Protocol::FaultSizeDev21 => {
+                    assert_eq!((train_records, test_records), (12, 12))
+                }
             }
             for label in 0..split.classes.len() {
                 assert!(
