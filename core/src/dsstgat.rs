@@ -35,9 +35,10 @@
 //! weight row per sensor slot (`V`, [`SENSOR_HEAD_INPUTS`] inputs): the network's
 //! weights are shared by the nodes, so it cannot tell "this level at the fan end"
 //! from "this level at the drive end", and each sensor sits behind its own transfer
-//! path. The trainer trains the head beside the network (a cross-entropy of its own)
-//! and adds `γ·` its logits ([`SENSOR_HEAD_FEATURES`] says which features; the trainer
-//! says why and what it measured). Averaging the steps first is also what makes the
+//! path. Its features per sensor are the band shares and the envelope features
+//! ([`SENSOR_HEAD_FEATURES`]); the trainer trains the two sets as two experts beside
+//! the network (each on a cross-entropy of its own) and folds their weights `γ`,
+//! `γ_k` into this one layer (the trainer says why and what it measured). Averaging the steps first is also what makes the
 //! head robust to noise: the mean of `T` segment features has a `√T` smaller spread.
 //!
 //! # Readout at the source node

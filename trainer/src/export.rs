@@ -753,7 +753,7 @@ fn model_card(
     );
     let _ = writeln!(s, "| sha256 | `{sha}` |");
     let _ = writeln!(s, "| created | {} |", today());
-    let _ = writeln!(s, "| architecture | DS-STGAT, int8 (`{ARCH_INT8}`): embedding → GAT (1 head) → GRU → attention pooling → class and indicator heads, H = {}, W_c folded into both heads; sensor head (one weight row per sensor on the window-mean log band shares, γ = {} folded in) added to the class logits |", cfg.hidden, crate::model::SENSOR_HEAD_WEIGHT);
+    let _ = writeln!(s, "| architecture | DS-STGAT, int8 (`{ARCH_INT8}`): embedding → GAT (1 head) → GRU → attention pooling → class and indicator heads, H = {}, W_c folded into both heads; sensor head (one weight row per sensor on the window means: a spectral expert on the log band shares, γ = {}, and a kinematic expert on the envelope features, γ_k = {}, folded in) added to the class logits |", cfg.hidden, crate::model::SENSOR_HEAD_WEIGHT, crate::model::KINEMATIC_HEAD_WEIGHT);
     let _ = writeln!(
         s,
         "| nodes | {} (missing channels masked) |",

@@ -1310,7 +1310,7 @@ pub fn train<const N: usize>(
                     node_dropout: cfg.node_dropout,
                     ..cfg.clone()
                 };
-                // Its sensor head learns the simulated hypotheses too and is dropped with
+                // Its sensor head (both experts) learns the simulated hypotheses too and is dropped with
                 // the classifier (the printed accuracy is of the combined logits).
                 let pre = pre_cfg.model_config(SIM_CLASSES.len()).init(&device);
                 let mut quiet = |_: &EpochStats| {};
