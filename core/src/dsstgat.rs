@@ -38,8 +38,9 @@
 //! path. Its features per sensor are the band shares and the envelope features
 //! ([`SENSOR_HEAD_FEATURES`]); the trainer trains the two sets as two experts beside
 //! the network (each on a cross-entropy of its own) and folds their weights `γ`,
-//! `γ_k` into this one layer (the trainer says why and what it measured). Averaging the steps first is also what makes the
-//! head robust to noise: the mean of `T` segment features has a `√T` smaller spread.
+//! `γ_k` into this one layer (the trainer says why and what it measured). Averaging
+//! the steps first is also what makes the head robust to noise: the mean of `T`
+//! segment features has a `√T` smaller spread.
 //!
 //! # Readout at the source node
 //! The pooling reads the states of node 0, the sensor on the monitored bearing, when

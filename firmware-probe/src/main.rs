@@ -28,7 +28,7 @@ use golden::{F, N, T};
 
 /// The shipped model's int8 network: `F` = 28 features, `H` = 32, its classes
 /// (`golden::CLASSES`, 10: a firmware is built for the model it ships; each class of
-/// room more costs a row of the classifier and of the sensor head, 95 B of RAM) and
+/// room more costs a row of the classifier and of the sensor head, about 100 B of RAM) and
 /// room for 8 indicators (the shipped head is zero-padded up to these).
 type Net = DsStgat<F, 32, { golden::CLASSES }, 8>;
 type NetScratch = Scratch<T, N, F, 32>;

@@ -557,6 +557,33 @@ mod tests {
         }
     }
 
+    /// The experts' inputs are the first and the last features of each node's slot.
+    #[test]
+    fn expert_inputs_split_each_slot() {
+        let device = Device::flex();
+        let (b, n, e) = (2, 3, SENSOR_HEAD_FEATURES.len());
+        let v: Vec<f32> = (0..b * n * e).map(|i| i as f32).collect();
+        let (spectral, kinematic) = expert_inputs(tensor(v, [b, n * e], &device));
+        assert_eq!(spectral.dims(), [b, n * SENSOR_HEAD_SPECTRAL]);
+        assert_eq!(kinematic.dims(), [b, n * SENSOR_HEAD_KINEMATIC]);
+        let (s, k) = (values(spectral), values(kinematic));
+        for row in 0..b {
+            for node in 0..n {
+                let slot = ((row * n + node) * e) as f32;
+                for f in 0..SENSOR_HEAD_SPECTRAL {
+                    assert_eq!(
+                        s[(row * n + node) * SENSOR_HEAD_SPECTRAL + f],
+                        slot + f as f32
+                    );
+                }
+                for f in 0..SENSOR_HEAD_KINEMATIC {
+                    let want = slot + (SENSOR_HEAD_SPECTRAL + f) as f32;
+                    assert_eq!(k[(row * n + node) * SENSOR_HEAD_KINEMATIC + f], want);
+                }
+            }
+        }
+    }
+
     #[test]
     fn gat_ignores_absent_nodes() {
         let _rng = crate::device_rng_lock();

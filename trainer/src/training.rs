@@ -1310,8 +1310,9 @@ pub fn train<const N: usize>(
                     node_dropout: cfg.node_dropout,
                     ..cfg.clone()
                 };
-                // Its sensor head (both experts) learns the simulated hypotheses too and is dropped with
-                // the classifier (the printed accuracy is of the combined logits).
+                // Its sensor head (both experts) learns the simulated hypotheses too and
+                // is dropped with the classifier (the printed accuracy is of the combined
+                // logits).
                 let pre = pre_cfg.model_config(SIM_CLASSES.len()).init(&device);
                 let mut quiet = |_: &EpochStats| {};
                 let mut none = |_: &DsStgat, _: &Option<PhysicsHeads>| None;
