@@ -486,13 +486,8 @@ fn by_load(
     let classes = &CLASSES_10[1..];
     by_record(protocol, classes, records, cfg, |r| {
         let label = class_index(classes, r.class_10()?)?;
-        if train_hp.contains(&r.load_hp) {
-            Some((Side::Train, label))
-        } else if r.load_hp == test_hp {
-            Some((Side::Test, label))
-        } else {
-            None
-        }
+        let side = side_of(train_hp.contains(&r.load_hp), r.load_hp == test_hp)?;
+        Some((side, label))
     })
 }
 
@@ -551,14 +546,24 @@ fn by_size(
     let classes: &[&str] = &["IR", "B", "OR"];
     by_record(protocol, classes, records, cfg, |r| {
         let label = class_index(classes, r.fault_type.as_str())?;
-        if train.contains(&r.fault_size_mils) {
-            Some((Side::Train, label))
-        } else if r.fault_size_mils == test {
-            Some((Side::Test, label))
-        } else {
-            None
-        }
+        let side = side_of(
+            train.contains(&r.fault_size_mils),
+            r.fault_size_mils == test,
+        )?;
+        Some((side, label))
     })
+}
+
+/// The side of a record that trains when `train`, tests when `test`, and is unused
+/// otherwise (`train` wins; no protocol asks both of one record).
+fn side_of(train: bool, test: bool) -> Option<Side> {
+    if train {
+        Some(Side::Train)
+    } else if test {
+        Some(Side::Test)
+    } else {
+        None
+    }
 }
 
 /// Build the split of `protocol`.
