@@ -33,12 +33,18 @@ def split(train_loads, test_load):
     return tr, te
 
 
-def accuracy(tr, te, view):
+def fit(tr, view):
+    """The probe on the (window means, class) pairs `tr` read through `view`: the
+    sorted classes, the standardizer and the logistic regression (C = 1)."""
     classes = sorted({c for _, c in tr})
     xtr = np.concatenate([view(x) for x, _ in tr])
     ytr = np.concatenate([[classes.index(c)] * len(x) for x, c in tr])
     s = StandardScaler().fit(xtr)
-    m = LogisticRegression(C=1.0, max_iter=5000).fit(s.transform(xtr), ytr)
+    return classes, s, LogisticRegression(C=1.0, max_iter=5000).fit(s.transform(xtr), ytr)
+
+
+def accuracy(tr, te, view):
+    classes, s, m = fit(tr, view)
     ok = n = 0
     for x, c in te:
         ok += int((m.predict(s.transform(view(x))) == classes.index(c)).sum())
@@ -70,11 +76,7 @@ fs_te = [(x, r["fault_type"], r) for x, r in feats.values() if r["fault_size_in"
 
 
 def fs_accuracy(view):
-    classes = sorted({c for _, c in fs_tr})
-    xtr = np.concatenate([view(x) for x, _ in fs_tr])
-    ytr = np.concatenate([[classes.index(c)] * len(x) for x, c in fs_tr])
-    s = StandardScaler().fit(xtr)
-    m = LogisticRegression(C=1.0, max_iter=5000).fit(s.transform(xtr), ytr)
+    classes, s, m = fit(fs_tr, view)
     by = {}
     for x, c, r in fs_te:
         ok = int((m.predict(s.transform(view(x))) == classes.index(c)).sum())
@@ -102,26 +104,15 @@ for label, nodes, fi in [("all features, DE", [0], None), ("all features, DE+FE+
 # KINEMATIC_HEAD_WEIGHT).
 
 
-def size_model(train_size, experts):
-    classes = ["B", "IR", "OR"]
-    tr = [(x, r["fault_type"]) for x, r in feats.values() if r["fault_size_in"] == train_size]
-    models = []
-    for view in experts:
-        xtr = np.concatenate([view(x) for x, _ in tr])
-        ytr = np.concatenate([[classes.index(c)] * len(x) for x, c in tr])
-        s = StandardScaler().fit(xtr)
-        m = LogisticRegression(C=1.0, max_iter=5000).fit(s.transform(xtr), ytr)
-        models.append((view, s, m))
-    return classes, models
-
-
 def size_accuracy(train_size, test_size, experts):
-    classes, models = size_model(train_size, experts)
+    tr = [(x, r["fault_type"]) for x, r in feats.values() if r["fault_size_in"] == train_size]
+    models = [(view, *fit(tr, view)) for view in experts]
+    classes = models[0][1]  # every expert sees the same pairs: the same sorted classes
     ok = n = 0
     for x, r in feats.values():
         if r["fault_size_in"] != test_size:
             continue
-        z = sum(m.decision_function(s.transform(view(x))) for view, s, m in models)
+        z = sum(m.decision_function(s.transform(view(x))) for view, _, s, m in models)
         ok += int((z.argmax(1) == classes.index(r["fault_type"])).sum())
         n += len(x)
     return 100.0 * ok / n

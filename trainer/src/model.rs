@@ -21,8 +21,9 @@
 //! g       = Σ β_ti s_ti                                            g_system
 //! Z       = W_c g + b_c                                            (12) compression
 //! x̄_i     = mean_t x_ti[SENSOR_HEAD_FEATURES] (0 if i is absent)   window mean per node
-//! l_s     = V [x̄_0 … x̄_(N−1)] + b_v                                sensor head
-//! ŷ       = Softmax(W_o Z + b_o + γ·l_s)                           (8)  (logits returned)
+//! l_s     = V_s [x̄ˢ_0 … x̄ˢ_(N−1)] + b_s                           spectral expert (band shares)
+//! l_k     = V_k [x̄ᵏ_0 … x̄ᵏ_(N−1)] + b_k                           kinematic expert (envelope)
+//! ŷ       = Softmax(W_o Z + b_o + γ·l_s + γ_k·l_k)                 (8)  (logits returned)
 //! F       = W_f Z + b_f                                            (13) 4 indicators
 //! ```
 //!

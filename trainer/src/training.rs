@@ -8,8 +8,9 @@
 //! L = Σ_b w_{y_b}·CE_b / Σ_b w_{y_b} + λ_ind·mean‖F_b − F*_b‖² + λ_reg·‖θ‖²
 //!     + λ_rec·L_rec   (+ λ_phy·L_phy + λ_map·L_map with the co-adaptation heads)
 //! CE_b = −log softmax(logits_b)[y_b]                               (14)
-//!        (DS-STGAT: the network's logits and the sensor head's, each its own CE,
-//!        summed; the class logits are network + γ·head, `model::SENSOR_HEAD_WEIGHT`)
+//!        (DS-STGAT: the network's logits and the sensor head's two experts', each
+//!        its own CE, summed; the class logits are network + γ·spectral + γ_k·kinematic,
+//!        `model::SENSOR_HEAD_WEIGHT`, `model::KINEMATIC_HEAD_WEIGHT`)
 //! w_c  = n / (C · n_c)   (class weights; 1 for every class when off)
 //! ```
 //!

@@ -392,8 +392,8 @@ pub enum SplitError {
     },
     /// A protocol name that does not exist.
     #[error(
-        "unknown protocol `{0}` (expected time-block, cross-load, fault-size, \
-         time-block-dev, cross-load-dev, cross-load-dev0, fault-size-dev7 or fault-size-dev21)"
+        "unknown protocol `{0}` (expected one of {expected})",
+        expected = Protocol::EVERY.map(Protocol::name).join(", ")
     )]
     UnknownProtocol(String),
     /// Samples of a record appear on both sides.
@@ -666,7 +666,10 @@ mod tests {
             Protocol::ALL.map(Protocol::name),
             ["time-block", "cross-load", "fault-size"]
         );
-        assert!("random".parse::<Protocol>().is_err());
+        let err = "random".parse::<Protocol>().expect_err("unknown");
+        for p in Protocol::EVERY {
+            assert!(err.to_string().contains(p.name()), "{err} names {p}");
+        }
         use clap::ValueEnum;
         for p in Protocol::EVERY {
             let v = p.to_possible_value().expect("visible");
