@@ -1491,6 +1491,116 @@ pub struct TrainArgs {
     pub no_figures: bool,
 }
 
+/// The DS-STGAT's parts on one copy of a test side: `[W][C]` logits of each.
+#[derive(Debug, Clone, Serialize)]
+pub struct ExpertCondition {
+    /// `null` for the clean test side, else the SNR of the added noise.
+    pub snr_db: Option<f32>,
+    /// `W_o Z + b_o`, the network's logits.
+    pub network: Vec<Vec<f32>>,
+    /// The sensor head's spectral expert (before its weight `γ`).
+    pub spectral: Vec<Vec<f32>>,
+    /// The sensor head's kinematic expert (before its weight `γ_k`).
+    pub kinematic: Vec<Vec<f32>>,
+}
+
+/// `pumptwin eval --experts`: what each of the DS-STGAT's parts says about every test
+/// window, the data of a study of how they are weighed (`logits = network +
+/// γ·spectral + γ_k·kinematic`, [`crate::model::SENSOR_HEAD_WEIGHT`],
+/// [`crate::model::KINEMATIC_HEAD_WEIGHT`]).
+#[derive(Debug, Clone, Serialize)]
+pub struct ExpertLogits {
+    /// Protocol of the test side.
+    pub protocol: String,
+    /// Class names, the logits' column order.
+    pub classes: Vec<String>,
+    /// True class per test window.
+    pub label: Vec<usize>,
+    /// The weights the model was built with: `[1, γ, γ_k]`.
+    pub weights: [f32; 3],
+    /// The clean test side, then one copy per SNR of the noise curve (the noise of
+    /// `metrics.json`: same seeds).
+    pub conditions: Vec<ExpertCondition>,
+}
+
+/// The three parts' logits of `model` over `ds` (see [`ExpertLogits`]).
+fn expert_condition(
+    model: &DsStgat,
+    ds: &Dataset,
+    snr_db: Option<f32>,
+    batch_size: usize,
+    device: &Device,
+) -> ExpertCondition {
+    let rows = |t: Tensor<2>| -> Vec<Vec<f32>> {
+        let c = t.dims()[1];
+        let v = t.into_data().try_into_vec::<f32>().unwrap_or_default();
+        v.chunks(c.max(1)).map(<[f32]>::to_vec).collect()
+    };
+    let mut out = ExpertCondition {
+        snr_db,
+        network: Vec::new(),
+        spectral: Vec::new(),
+        kinematic: Vec::new(),
+    };
+    let idx: Vec<usize> = (0..ds.len()).collect();
+    for chunk in idx.chunks(batch_size.max(1)) {
+        let b = Batch::new(ds, chunk, device);
+        let (network, spectral, kinematic) = model.forward(b.x, b.adj, b.mask).parts;
+        out.network.extend(rows(network));
+        out.spectral.extend(rows(spectral));
+        out.kinematic.extend(rows(kinematic));
+    }
+    out
+}
+
+/// Write [`ExpertLogits`] of a burn DS-STGAT on `data`'s test side to `path`.
+fn write_experts<const N: usize>(
+    path: &Path,
+    net: &Network,
+    cfg: &TrainConfig,
+    data: &ProtocolData<N>,
+    corpus: &Corpus,
+    device: &Device,
+) -> Result<()> {
+    let Network::DsStgat(model) = net else {
+        bail!(
+            "--experts needs a DS-STGAT model (this one is {})",
+            cfg.report_name()
+        );
+    };
+    let batch = cfg.eval_batch_size;
+    let mut conditions = vec![expert_condition(model, &data.test, None, batch, device)];
+    for k in 0..crate::metrics::NOISE_SNR_DB.len() {
+        let spec = crate::metrics::noise_spec(cfg.seed, k);
+        let noisy = data
+            .noisy_test(corpus, spec)
+            .with_context(|| format!("cannot featurize the test side at {} dB", spec.snr_db))?;
+        conditions.push(expert_condition(
+            model,
+            &noisy,
+            Some(spec.snr_db),
+            batch,
+            device,
+        ));
+    }
+    let report = ExpertLogits {
+        protocol: data.protocol.name().to_string(),
+        classes: data.classes().to_vec(),
+        label: data.test.label.iter().map(|&l| l as usize).collect(),
+        weights: [
+            1.0,
+            crate::model::SENSOR_HEAD_WEIGHT,
+            crate::model::KINEMATIC_HEAD_WEIGHT,
+        ],
+        conditions,
+    };
+    let text = serde_json::to_string(&report)?;
+    std::fs::write(path, text + "\n")
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    eprintln!("wrote {}", path.display());
+    Ok(())
+}
+
 /// `pumptwin eval`: evaluate a trained model on a protocol's test side.
 #[derive(Debug, Clone, clap::Args)]
 pub struct EvalArgs {
@@ -1510,6 +1620,12 @@ pub struct EvalArgs {
     /// Skip the PNG figures.
     #[arg(long)]
     pub no_figures: bool,
+    /// Also write the DS-STGAT's three parts' logits (network, spectral expert,
+    /// kinematic expert) per test window, clean and at every SNR of the noise curve, to
+    /// this JSON file ([`ExpertLogits`]; read by `scripts/expert-fusion.py`). Burn
+    /// DS-STGAT models only.
+    #[arg(long)]
+    pub experts: Option<PathBuf>,
 }
 
 /// A protocol from its name (`time-block`, `cross-load`, `fault-size`).
@@ -1985,6 +2101,9 @@ fn eval_with<const N: usize>(
         crate::figures::run_figures(&args.out, &report, &history, &inference, &data)?;
     }
     eprintln!("wrote {}", args.out.join(METRICS_FILE).display());
+    if let Some(path) = &args.experts {
+        write_experts(path, &net, cfg, &data, &corpus, &plain)?;
+    }
     Ok(())
 }
 
@@ -1998,6 +2117,12 @@ fn read_saved_norms(model: &Path) -> Option<SavedNorms> {
 /// `pumptwin eval` of an int8 model file: every window through the core's integer
 /// network, with the file's own normalization.
 fn run_eval_int8(args: &EvalArgs) -> Result<()> {
+    if args.experts.is_some() {
+        bail!(
+            "--experts reads the parts of a burn DS-STGAT (model.bpk); an int8 model file \
+             folds them into one sensor head"
+        );
+    }
     let loaded = crate::export::load_model_file(&args.model)?;
     let graph = loaded.file.graph_config::<N_NODES>()?;
     let (corpus, data) = load_protocol(

@@ -113,11 +113,15 @@ fn train_eval_predict_compare_on_cwru() {
             protocol: Protocol::TimeBlock,
             out: eval_out.clone(),
             no_figures: true,
+            experts: (arch == Arch::DsStgat).then(|| eval_out.join("experts.json")),
         })
         .unwrap();
         let e = json(&eval_out.join("metrics.json"));
         assert_eq!(e["accuracy"], m["accuracy"], "{name}");
         assert_eq!(e["confusion"], m["confusion"], "{name}");
+        if arch == Arch::DsStgat {
+            experts_agree_with_metrics(&json(&eval_out.join("experts.json")), &e, name);
+        }
     }
     // predict runs a raw-signal baseline too, and a derived-node model (its extra nodes
     // computed from the record's DE).
@@ -178,4 +182,59 @@ fn train_eval_predict_compare_on_cwru() {
         assert!(cmp_out.join(png).is_file());
     }
     let _ = std::fs::remove_dir_all(&tmp);
+}
+
+/// The parts `pumptwin eval --experts` writes, weighed as the model weighs them, give
+/// the clean accuracy and the noise curve of `metrics.json`.
+fn experts_agree_with_metrics(x: &serde_json::Value, m: &serde_json::Value, name: &str) {
+    let label: Vec<u64> = x["label"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_u64().unwrap())
+        .collect();
+    let w: Vec<f64> = x["weights"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    let conditions = x["conditions"].as_array().unwrap();
+    let noise = m["noise"].as_array().unwrap();
+    assert_eq!(conditions.len(), 1 + noise.len(), "{name}");
+    for (k, c) in conditions.iter().enumerate() {
+        let part = |key: &str| c[key].as_array().unwrap().clone();
+        let (a, s, kin) = (part("network"), part("spectral"), part("kinematic"));
+        assert_eq!(a.len(), label.len(), "{name}");
+        let mut correct = 0;
+        for (j, &y) in label.iter().enumerate() {
+            let row = |p: &[serde_json::Value]| -> Vec<f64> {
+                p[j].as_array()
+                    .unwrap()
+                    .iter()
+                    .map(|v| v.as_f64().unwrap())
+                    .collect()
+            };
+            let (ra, rs, rk) = (row(&a), row(&s), row(&kin));
+            let logit = |i: usize| w[0] * ra[i] + w[1] * rs[i] + w[2] * rk[i];
+            let best = (0..ra.len())
+                .max_by(|&p, &q| logit(p).total_cmp(&logit(q)))
+                .unwrap();
+            correct += usize::from(best as u64 == y);
+        }
+        let acc = correct as f64 / label.len() as f64;
+        let want = if k == 0 {
+            assert!(c["snr_db"].is_null(), "{name}");
+            m["accuracy"].as_f64().unwrap()
+        } else {
+            assert_eq!(c["snr_db"], noise[k - 1]["snr_db"], "{name}");
+            noise[k - 1]["accuracy"].as_f64().unwrap()
+        };
+        // The parts summed in f64 here, in f32 by the model: a near-tie may fall
+        // either way.
+        assert!(
+            (acc - want).abs() <= 2.0 / label.len() as f64,
+            "{name} condition {k}: {acc} vs {want}"
+        );
+    }
 }
