@@ -10,6 +10,7 @@
 //! g      = AttentionPool(s, mask.readout())                  §4.2    (quant::pool)
 //! x̄_i    = (1/T) Σ_t x_ti[SENSOR_HEAD_FEATURES]             window mean, 0 if i absent
 //! logits = W_o' g + b_o' + V [x̄_0 … x̄_(S−1)] + b_v          eq. 8 + the sensor head
+//!          + vote(x̄_0)                                        the defect-line vote
 //! ind    = W_f' g + b_f'                                     eq. 13, W_f' = W_f W_c folded
 //! ```
 //!
@@ -145,6 +146,162 @@ pub fn sensor_head_input<const T: usize, const N: usize, const F: usize>(
     Ok(())
 }
 
+/// Threshold `τ` of the defect-line vote: dB of a defect line over the envelope
+/// spectrum's median (the core's `env_*_db`) below which it casts no vote. White noise
+/// alone gives about 5 dB (the largest of a few exponential bins over their median),
+/// so 7 dB is a line, not the floor. Chosen with [`LINE_VOTE_WEIGHT`] on the
+/// development protocols only (`bash scripts/expert-fusion.sh`, trainer docs).
+pub const LINE_VOTE_THRESHOLD_DB: f32 = 7.0;
+/// Weight `β` of the defect-line vote: logits per dB above [`LINE_VOTE_THRESHOLD_DB`].
+pub const LINE_VOTE_WEIGHT: f32 = 2.0;
+/// The envelope lines the vote reads, in [`defect_line`]'s order: outer race (BPFO),
+/// inner race (BPFI), rolling element (BSF) (indices into
+/// [`crate::features::FEATURE_NAMES`]).
+pub const LINE_VOTE_FEATURES: [usize; 3] = [
+    crate::features::feature_index("env_bpfo_db"),
+    crate::features::feature_index("env_bpfi_db"),
+    crate::features::feature_index("env_bsf_db"),
+];
+/// "No line" in [`LineVote`]'s per-class table.
+const NO_LINE: u8 = u8::MAX;
+
+/// The position of feature `f` in a sensor head slot ([`SENSOR_HEAD_FEATURES`]).
+const fn slot_position(f: usize) -> usize {
+    let mut j = 0;
+    while j < SENSOR_HEAD_DIM {
+        if SENSOR_HEAD_FEATURES[j] == f {
+            return j;
+        }
+        j += 1;
+    }
+    panic!("a line the vote reads is not among the sensor head's features")
+}
+const LINE_SLOT: [usize; 3] = [
+    slot_position(LINE_VOTE_FEATURES[0]),
+    slot_position(LINE_VOTE_FEATURES[1]),
+    slot_position(LINE_VOTE_FEATURES[2]),
+];
+
+/// The defect line of a class's fault type, from the class name's prefix (the CWRU
+/// labels the project trains on: `IR007`, `B014`, `OR021`, …): `OR…` → 0 (BPFO),
+/// `IR…` → 1 (BPFI), `B` followed by a digit or nothing → 2 (BSF); any other class
+/// (`normal`) has none.
+pub fn defect_line(class_name: &str) -> Option<usize> {
+    let b = class_name.as_bytes();
+    match b {
+        [b'O', b'R', ..] => Some(0),
+        [b'I', b'R', ..] => Some(1),
+        [b'B'] => Some(2),
+        [b'B', d, ..] if d.is_ascii_digit() => Some(2),
+        _ => None,
+    }
+}
+
+/// The defect-line vote: the kinematic physics of a rolling bearing as a prior on the
+/// class logits, the envelope analysis a vibration analyst does by hand.
+///
+/// ```text
+/// L_l    = σ_l · x̄_0[l] + μ_l       window-mean line l at node 0, in dB (undoing the
+///                                    feature normalization), l ∈ {BPFO, BPFI, BSF}
+/// vote_c = β · max(0, L_line(c) − τ)  for a class whose fault type has line(c)
+///          0                          for the others, and for all when node 0 is absent
+/// logits += vote
+/// ```
+///
+/// Where a defect sits on the bearing sets the rate of its impacts (BPFO, BPFI, BSF
+/// follow from the geometry and the shaft speed alone), whatever the defect's size,
+/// the load or the transfer path; the learned parts read shapes that change with
+/// them. The vote reads node 0, the sensor on the monitored bearing (the readout's
+/// source node). It is not trained: its weights are the physics, `τ` and `β`
+/// ([`LINE_VOTE_THRESHOLD_DB`], [`LINE_VOTE_WEIGHT`]) were chosen on the development
+/// protocols. Under noise the lines sink under the threshold and the vote falls
+/// silent instead of voting wrong.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LineVote<const C: usize> {
+    /// Per class: the index of its line in [`LINE_VOTE_FEATURES`], or [`NO_LINE`].
+    line: [u8; C],
+    /// Per line: the normalization's mean and standard deviation of its feature.
+    mean: [f32; 3],
+    std: [f32; 3],
+}
+
+impl<const C: usize> LineVote<C> {
+    /// A vote that votes for nothing.
+    pub const NONE: Self = Self {
+        line: [NO_LINE; C],
+        mean: [0.0; 3],
+        std: [1.0; 3],
+    };
+
+    /// The vote for classes `class_names` (in logit order; classes past them vote
+    /// nothing) of a model whose features are normalized by `norm`.
+    ///
+    /// # Errors
+    /// [`Error::ModelDimensions`] for more names than `C`.
+    pub fn new<'a>(
+        class_names: impl IntoIterator<Item = &'a str>,
+        norm: &crate::features::FeatureNorm,
+    ) -> Result<Self> {
+        let mut vote = Self::NONE;
+        vote.set(class_names, &norm.mean, &norm.std)?;
+        Ok(vote)
+    }
+
+    /// [`LineVote::new`] in place, from the normalization's means and standard
+    /// deviations (a model file's `NormParts`): the MCU's in-place build keeps no copy
+    /// of the normalization on its stack.
+    ///
+    /// # Errors
+    /// As [`LineVote::new`]; on error the vote votes for nothing.
+    pub fn set<'a>(
+        &mut self,
+        class_names: impl IntoIterator<Item = &'a str>,
+        mean: &[f32; crate::features::FEATURE_DIM],
+        std: &[f32; crate::features::FEATURE_DIM],
+    ) -> Result<()> {
+        *self = Self::NONE;
+        for (k, name) in class_names.into_iter().enumerate() {
+            let Some(slot) = self.line.get_mut(k) else {
+                *self = Self::NONE;
+                return Err(Error::ModelDimensions(
+                    "more class names than the vote's classes",
+                ));
+            };
+            *slot = defect_line(name).map_or(NO_LINE, |l| l as u8);
+        }
+        for (l, &f) in LINE_VOTE_FEATURES.iter().enumerate() {
+            if let (Some(&m), Some(&s)) = (mean.get(f), std.get(f)) {
+                self.mean[l] = m;
+                self.std[l] = s;
+            }
+        }
+        Ok(())
+    }
+
+    /// The votes `[C]` of a window from its sensor head input (slot 0 is node 0's
+    /// window-mean normalized features, [`sensor_head_input`]); zero when node 0 is
+    /// absent.
+    pub fn votes(&self, head_input: &[f32], node0_present: bool) -> [f32; C] {
+        let mut out = [0.0; C];
+        if !node0_present {
+            return out;
+        }
+        let mut strength = [0.0f32; 3];
+        for (l, s) in strength.iter_mut().enumerate() {
+            let x = head_input.get(LINE_SLOT[l]).copied().unwrap_or(0.0);
+            let db = self.std[l] * x + self.mean[l];
+            let v = LINE_VOTE_WEIGHT * (db - LINE_VOTE_THRESHOLD_DB);
+            *s = if v > 0.0 { v } else { 0.0 }; // also maps NaN to 0
+        }
+        for (o, &l) in out.iter_mut().zip(&self.line) {
+            if let Some(&s) = strength.get(usize::from(l)) {
+                *o = s;
+            }
+        }
+        out
+    }
+}
+
 /// Float reference DS-STGAT.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DsStgatF32<const F: usize, const H: usize, const C: usize, const K: usize> {
@@ -162,6 +319,8 @@ pub struct DsStgatF32<const F: usize, const H: usize, const C: usize, const K: u
     pub indicator: LinearF32<H, K>,
     /// Sensor head: its logits add to the classifier's ([`sensor_head_input`]).
     pub sensor: LinearF32<SENSOR_HEAD_INPUTS, C>,
+    /// The defect-line vote, added to the logits last ([`LineVote`]).
+    pub line_vote: LineVote<C>,
 }
 
 /// Max-abs observers of every calibrated activation of the network.
@@ -335,8 +494,14 @@ impl<const F: usize, const H: usize, const C: usize, const K: usize> DsStgatF32<
             *l += v;
         }
         self.indicator.forward(&g, &mut out.indicators);
+        // The head scale is the network's and the sensor head's: the vote adds after
+        // it (in the int8 network too, at the logits' scale).
         ranges.logits.observe_all(&out.logits);
         ranges.indicators.observe_all(&out.indicators);
+        let vote = self.line_vote.votes(&xs, mask.0[0]);
+        for (l, v) in out.logits.iter_mut().zip(vote) {
+            *l += v;
+        }
         Ok(())
     }
 }
@@ -407,6 +572,7 @@ pub struct DsStgat<const F: usize, const H: usize, const C: usize, const K: usiz
     classifier: Classifier<H, C>,
     indicator: QLinear<H, K>,
     sensor: QLinear<SENSOR_HEAD_INPUTS, C>,
+    line_vote: LineVote<C>,
     /// Classes in use (`≤ C`; the rest are zero padding).
     classes: usize,
     /// Indicators in use (`≤ K`).
@@ -462,6 +628,7 @@ impl<const F: usize, const H: usize, const C: usize, const K: usize> DsStgat<F, 
             classifier,
             indicator,
             sensor,
+            line_vote: float.line_vote,
             classes: C,
             indicators: K,
         })
@@ -490,6 +657,7 @@ impl<const F: usize, const H: usize, const C: usize, const K: usize> DsStgat<F, 
         classifier: Classifier::EMPTY,
         indicator: QLinear::EMPTY,
         sensor: QLinear::EMPTY,
+        line_vote: LineVote::NONE,
         classes: 0,
         indicators: 0,
     };
@@ -532,6 +700,11 @@ impl<const F: usize, const H: usize, const C: usize, const K: usize> DsStgat<F, 
                 "sensor_head: outputs != the classifier's classes",
             ));
         }
+        self.line_vote.set(
+            m.class_names.iter().map(|n| n.as_str()),
+            &m.feature_norm.mean,
+            &m.feature_norm.std,
+        )?;
         self.classes = classes;
         self.indicators = indicators;
         Ok(())
@@ -590,8 +763,17 @@ impl<const F: usize, const H: usize, const C: usize, const K: usize> DsStgat<F, 
         self.classifier.linear().forward_i32(&g, &mut out.logits);
         let mut sensor = [0i32; C];
         self.sensor.forward_i32(&sensor_q, &mut sensor);
-        for (l, v) in out.logits.iter_mut().zip(sensor) {
-            *l = l.saturating_add(v);
+        // The vote in logit codes (≥ 0, rounded half up; saturating).
+        let inv_scale = 1.0 / self.logit_scale().get();
+        let vote = self.line_vote.votes(&sensor_in, mask.0[0]);
+        for ((l, v), w) in out.logits.iter_mut().zip(sensor).zip(vote) {
+            let w = w * inv_scale + 0.5;
+            let w = if w < i32::MAX as f32 {
+                w as i32
+            } else {
+                i32::MAX
+            };
+            *l = l.saturating_add(v).saturating_add(w);
         }
         out.class = out
             .logits
@@ -878,7 +1060,41 @@ mod tests {
             },
             indicator: linear(&mut rng),
             sensor: linear(&mut rng),
+            line_vote: LineVote::new(["normal", "IR007", "B007", "OR007", "IR014"], &vote_norm())
+                .unwrap(),
         }
+    }
+
+    /// A normalization that puts the test windows' line features (about ±1) around
+    /// the vote's threshold, so that the vote fires on some windows and not others.
+    fn vote_norm() -> crate::features::FeatureNorm {
+        let mut norm = crate::features::FeatureNorm::IDENTITY;
+        for &f in &LINE_VOTE_FEATURES {
+            norm.mean[f] = LINE_VOTE_THRESHOLD_DB;
+            norm.std[f] = 2.0;
+        }
+        norm
+    }
+
+    #[test]
+    fn the_line_vote_reads_node_0s_defect_lines() {
+        assert_eq!(defect_line("OR014"), Some(0));
+        assert_eq!(defect_line("IR007"), Some(1));
+        assert_eq!(defect_line("B021"), Some(2));
+        assert_eq!(defect_line("B"), Some(2));
+        assert_eq!(defect_line("BA"), None);
+        assert_eq!(defect_line("normal"), None);
+        let vote = LineVote::<5>::new(["normal", "OR007", "IR007", "B007"], &vote_norm()).unwrap();
+        let mut head = [0.0f32; SENSOR_HEAD_INPUTS];
+        // BPFO 3 dB over the threshold, BPFI under it, BSF NaN; node 1's lines ignored.
+        head[LINE_SLOT[0]] = 1.5;
+        head[LINE_SLOT[1]] = -0.5;
+        head[LINE_SLOT[2]] = f32::NAN;
+        head[SENSOR_HEAD_DIM + LINE_SLOT[1]] = 10.0;
+        let v = vote.votes(&head, true);
+        assert_eq!(v, [0.0, LINE_VOTE_WEIGHT * 3.0, 0.0, 0.0, 0.0]);
+        assert_eq!(vote.votes(&head, false), [0.0; 5], "node 0 absent: no vote");
+        assert!(LineVote::<2>::new(["IR", "OR", "B"], &vote_norm()).is_err());
     }
 
     /// A window of features with class-dependent structure, a random graph (with
@@ -1053,7 +1269,6 @@ mod tests {
     /// network's capacity): the int8 outputs are identical.
     #[test]
     fn model_file_round_trip_gives_identical_outputs() {
-        use crate::features::FeatureNorm;
         use crate::model_file::{decode, encode, ModelFile, Name, MAX_ENCODED_LEN};
         // Zero the padded rows, as the trainer's export does.
         let mut float = network(21);
@@ -1071,6 +1286,9 @@ mod tests {
         for b in float.sensor.b.iter_mut().skip(3) {
             *b = 0.0;
         }
+        // The vote of the file's classes: the decoded network must build it back
+        // from the class names and the normalization.
+        float.line_vote = LineVote::new(["normal", "IR007", "B007"], &vote_norm()).unwrap();
         let mut rng = Xoshiro128pp::seed_from_u64(77);
         let mut ranges = Ranges::default();
         let mut sf = ScratchF32::<T, N, H>::new();
@@ -1086,7 +1304,7 @@ mod tests {
         q.store(&mut file, 3, 3).unwrap();
         file.dims.nodes = N as u16;
         file.dims.steps = T as u16;
-        for name in ["normal", "IR", "OR"] {
+        for name in ["normal", "IR007", "B007"] {
             file.class_names
                 .push(Name::try_from(name).unwrap())
                 .unwrap();
@@ -1104,7 +1322,7 @@ mod tests {
             file.indicator.mean.push(0.0).unwrap();
             file.indicator.std.push(1.0).unwrap();
         }
-        file.feature_norm = (&FeatureNorm::IDENTITY).into();
+        file.feature_norm = (&vote_norm()).into();
         file.graph =
             crate::model_file::GraphParts::from_config(&crate::graph::GraphConfig::<N>::uniform())
                 .unwrap();

@@ -6,7 +6,7 @@
 //! | offset | bytes | field | encoding |
 //! |---|---|---|---|
 //! | 0 | 8 | magic [`MAGIC`] = `PTWINMDL` | ASCII |
-//! | 8 | 2 | format version [`FORMAT_VERSION`] = 8 | u16, little-endian |
+//! | 8 | 2 | format version [`FORMAT_VERSION`] = 9 | u16, little-endian |
 //! | 10 | 4 | payload length `L` | u32, little-endian |
 //! | 14 | `L` | payload: a [`ModelFile`] | postcard 1.x |
 //! | 14 + `L` | 4 | CRC-32 of the payload (see [`crc32`]) | u32, little-endian |
@@ -134,7 +134,10 @@
 //! classifier's), so a version-6 file lacks a layer the network needs. Version 8:
 //! the sensor head reads the five envelope features of each sensor after its sixteen
 //! band shares (`crate::dsstgat::SENSOR_HEAD_FEATURES`: 21 per slot, 63 inputs), so a
-//! version-7 file's head has the wrong width.
+//! version-7 file's head has the wrong width. Version 9: the same payload, but the
+//! logits add the defect-line vote (`crate::dsstgat::LineVote`, built from the class
+//! names and the normalization), so a version-8 file's golden logits and parity
+//! figures are no longer what the network computes from it.
 
 use heapless::{String, Vec};
 use serde::{Deserialize, Serialize};
@@ -154,7 +157,7 @@ use crate::simulator::BearingParams;
 /// The first 8 bytes of every model file.
 pub const MAGIC: [u8; 8] = *b"PTWINMDL";
 /// The format version this core writes and reads.
-pub const FORMAT_VERSION: u16 = 8;
+pub const FORMAT_VERSION: u16 = 9;
 /// Bytes before the payload: magic, version, payload length.
 pub const HEADER_LEN: usize = 14;
 /// Bytes after the payload: the CRC-32.
@@ -2159,7 +2162,7 @@ mod tests {
         assert_eq!(decode(&f), Err(Error::ModelMagic));
 
         let mut f = file.clone();
-        for old in [1u16, 2, 3, 4, 5, 6, 7, 9] {
+        for old in [1u16, 2, 3, 4, 5, 6, 7, 8, 10] {
             f[8..10].copy_from_slice(&old.to_le_bytes());
             assert_eq!(
                 decode(&f),

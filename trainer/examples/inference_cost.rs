@@ -54,12 +54,14 @@ fn main() -> anyhow::Result<()> {
         }
         "burn" => {
             let path = root.join("models/dsstgat-cwru-tb.float/model.bpk");
-            let (cfg, _) = load_trained_config(&path)?;
+            let (cfg, norms) = load_trained_config(&path)?;
+            let (norm, _) = norms.ok_or_else(|| anyhow::anyhow!("no normalization.json"))?;
             let device = Device::flex();
             let model = cfg
                 .model_config(cfg.classes.len())
                 .init(&device)
-                .try_load_file(&path)?;
+                .try_load_file(&path)?
+                .with_line_vote(&norm, &cfg.classes)?;
             let x = Tensor::<4>::from_data(
                 TensorData::new(w.x.clone(), [1, 8, 3, FEATURE_DIM]),
                 &device,

@@ -197,6 +197,11 @@ pub fn float_reference<const H: usize>(
         classifier: folded_head::<H, MODEL_CLASSES>(&m.compress, &m.classifier)?,
         indicator: folded_head::<H, MODEL_INDICATORS>(&m.compress, &m.indicator)?,
         sensor: sensor_head::<MODEL_CLASSES>(&m.sensor, &m.kinematic)?,
+        // The model file rebuilds the vote from its class names and normalization:
+        // the reference must have the same one (`DsStgat::with_line_vote`).
+        line_vote: m
+            .line_vote
+            .ok_or_else(|| anyhow::anyhow!("the burn model has no defect-line vote"))?,
     })
 }
 
@@ -499,7 +504,8 @@ pub fn run_export(args: &ExportArgs) -> Result<()> {
         .model_config(data.classes().len())
         .init(&device)
         .try_load_file(&args.model)
-        .with_context(|| format!("cannot load {}", args.model.display()))?;
+        .with_context(|| format!("cannot load {}", args.model.display()))?
+        .with_line_vote(&data.norm, data.classes())?;
     match cfg.hidden {
         16 => export_with::<16>(args, &cfg, &data, &burn_model, &device),
         32 => export_with::<32>(args, &cfg, &data, &burn_model, &device),

@@ -128,7 +128,8 @@ pub fn run_predict(args: &PredictArgs) -> Result<()> {
         let (norm, _) = norms.context("no normalization.json beside the burn model")?;
         let net = Network::init(&cfg, cfg.classes.len(), &device)?
             .load(&args.model)?
-            .valid();
+            .valid()
+            .with_line_vote(&norm, &cfg.classes)?;
         PredictModel::Burn { cfg, norm, net }
     };
     let input = Input {

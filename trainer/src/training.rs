@@ -777,6 +777,19 @@ impl Network {
         })
     }
 
+    /// The network with the DS-STGAT's defect-line vote for `classes` under the
+    /// feature normalization `norm` ([`DsStgat::with_line_vote`]); the baselines have
+    /// none.
+    ///
+    /// # Errors
+    /// More classes than the vote holds.
+    pub fn with_line_vote(self, norm: &FeatureNorm, classes: &[String]) -> Result<Self> {
+        Ok(match self {
+            Self::DsStgat(m) => Self::DsStgat(m.with_line_vote(norm, classes)?),
+            other => other,
+        })
+    }
+
     /// Whether the network reads raw samples.
     pub fn raw(&self) -> bool {
         fn raw_of<M: Net>(_: &M) -> bool {
@@ -1268,7 +1281,9 @@ pub fn train<const N: usize>(
     device.seed(cfg.seed);
     let classes = data.classes().len();
     let t_total = Instant::now();
-    let net = Network::init(cfg, classes, &device)?;
+    // The vote is not trained; it is here so that the monitored accuracies are the
+    // model's.
+    let net = Network::init(cfg, classes, &device)?.with_line_vote(&data.norm, data.classes())?;
     let test = &data.test;
     let batch = cfg.eval_batch_size;
     macro_rules! run {
@@ -1502,12 +1517,18 @@ pub struct ExpertCondition {
     pub spectral: Vec<Vec<f32>>,
     /// The sensor head's kinematic expert (before its weight `γ_k`).
     pub kinematic: Vec<Vec<f32>>,
+    /// The defect-line vote, added with weight 1 (empty for a model without one).
+    pub line_vote: Vec<Vec<f32>>,
+    /// Node 0's window-mean envelope lines in dB over the envelope median (BPFO, BPFI,
+    /// BSF: the vote's inputs, `pumptwin_core::dsstgat::LINE_VOTE_FEATURES`), `null`
+    /// where node 0 is absent: what a study of the vote's threshold and weight reads.
+    pub node0_lines_db: Vec<Option<[f32; 3]>>,
 }
 
 /// `pumptwin eval --experts`: what each of the DS-STGAT's parts says about every test
 /// window, the data of a study of how they are weighed (`logits = network +
-/// γ·spectral + γ_k·kinematic`, [`crate::model::SENSOR_HEAD_WEIGHT`],
-/// [`crate::model::KINEMATIC_HEAD_WEIGHT`]).
+/// γ·spectral + γ_k·kinematic + vote`, [`crate::model::SENSOR_HEAD_WEIGHT`],
+/// [`crate::model::KINEMATIC_HEAD_WEIGHT`], the core's `LineVote`).
 #[derive(Debug, Clone, Serialize)]
 pub struct ExpertLogits {
     /// Protocol of the test side.
@@ -1516,21 +1537,24 @@ pub struct ExpertLogits {
     pub classes: Vec<String>,
     /// True class per test window.
     pub label: Vec<usize>,
-    /// The weights the model was built with: `[1, γ, γ_k]`.
+    /// The weights the model was built with: `[1, γ, γ_k]` (the vote adds with 1).
     pub weights: [f32; 3],
     /// The clean test side, then one copy per SNR of the noise curve (the noise of
     /// `metrics.json`: same seeds).
     pub conditions: Vec<ExpertCondition>,
 }
 
-/// The three parts' logits of `model` over `ds` (see [`ExpertLogits`]).
+/// The three parts' logits of `model` over `ds` (see [`ExpertLogits`]), with the
+/// vote and its inputs (`norm`: the features' normalization).
 fn expert_condition(
     model: &DsStgat,
     ds: &Dataset,
+    norm: &FeatureNorm,
     snr_db: Option<f32>,
     batch_size: usize,
     device: &Device,
 ) -> ExpertCondition {
+    use pumptwin_core::dsstgat::{LINE_VOTE_FEATURES, SENSOR_HEAD_FEATURES};
     let rows = |t: Tensor<2>| -> Vec<Vec<f32>> {
         let c = t.dims()[1];
         let v = t.into_data().try_into_vec::<f32>().unwrap_or_default();
@@ -1541,14 +1565,35 @@ fn expert_condition(
         network: Vec::new(),
         spectral: Vec::new(),
         kinematic: Vec::new(),
+        line_vote: Vec::new(),
+        node0_lines_db: Vec::new(),
     };
+    let slot = LINE_VOTE_FEATURES.map(|f| {
+        SENSOR_HEAD_FEATURES
+            .iter()
+            .position(|&g| g == f)
+            .expect("the vote's lines are sensor head features")
+    });
     let idx: Vec<usize> = (0..ds.len()).collect();
     for chunk in idx.chunks(batch_size.max(1)) {
         let b = Batch::new(ds, chunk, device);
-        let (network, spectral, kinematic) = model.forward(b.x, b.adj, b.mask).parts;
+        let head = rows(crate::model::sensor_head_input(b.x.clone(), b.mask.clone()));
+        let o = model.forward(b.x, b.adj, b.mask);
+        let (network, spectral, kinematic) = o.parts;
         out.network.extend(rows(network));
         out.spectral.extend(rows(spectral));
         out.kinematic.extend(rows(kinematic));
+        if let Some(v) = o.vote {
+            out.line_vote.extend(rows(v));
+        }
+        for (row, &w) in head.iter().zip(chunk) {
+            out.node0_lines_db.push(ds.mask[w * ds.nodes].then(|| {
+                std::array::from_fn(|l| {
+                    let f = LINE_VOTE_FEATURES[l];
+                    row[slot[l]] * norm.std[f] + norm.mean[f]
+                })
+            }));
+        }
     }
     out
 }
@@ -1569,7 +1614,10 @@ fn write_experts<const N: usize>(
         );
     };
     let batch = cfg.eval_batch_size;
-    let mut conditions = vec![expert_condition(model, &data.test, None, batch, device)];
+    let norm = &data.norm;
+    let mut conditions = vec![expert_condition(
+        model, &data.test, norm, None, batch, device,
+    )];
     for k in 0..crate::metrics::NOISE_SNR_DB.len() {
         let spec = crate::metrics::noise_spec(cfg.seed, k);
         let noisy = data
@@ -1578,6 +1626,7 @@ fn write_experts<const N: usize>(
         conditions.push(expert_condition(
             model,
             &noisy,
+            norm,
             Some(spec.snr_db),
             batch,
             device,
@@ -1919,7 +1968,8 @@ fn train_with<const N: usize>(
     // differ slightly: burn keeps running statistics per thread).
     let net = Network::init(&cfg, cfg.classes.len(), &plain)?
         .load(&args.out.join(MODEL_FILE))?
-        .valid();
+        .valid()
+        .with_line_vote(&data.norm, data.classes())?;
     let heads = outcome.heads.as_ref().map(Module::valid);
     let (report, inference) = evaluate_network(
         &net,
@@ -2063,7 +2113,8 @@ fn eval_with<const N: usize>(
     // `valid()`: inference mode (batch norm on its running statistics, no dropout).
     let net = Network::init(cfg, data.classes().len(), &plain)?
         .load(&args.model)?
-        .valid();
+        .valid()
+        .with_line_vote(&data.norm, data.classes())?;
     let heads_path = args
         .model
         .parent()

@@ -34,6 +34,8 @@ fn shipped_int8_model_agrees_with_the_float_model_on_cwru() {
         .model_config(pd.classes().len())
         .init(&device)
         .try_load_file(&float_path)
+        .unwrap()
+        .with_line_vote(&pd.norm, pd.classes())
         .unwrap();
     let fl = burn_logits(&burn, &pd.test, 256, &device).unwrap();
     let q = int8_outputs(&int8.model, &pd.test).unwrap();

@@ -184,8 +184,9 @@ fn train_eval_predict_compare_on_cwru() {
     let _ = std::fs::remove_dir_all(&tmp);
 }
 
-/// The parts `pumptwin eval --experts` writes, weighed as the model weighs them, give
-/// the clean accuracy and the noise curve of `metrics.json`.
+/// The parts `pumptwin eval --experts` writes, weighed as the model weighs them and
+/// with the defect-line vote, give the clean accuracy and the noise curve of
+/// `metrics.json`.
 fn experts_agree_with_metrics(x: &serde_json::Value, m: &serde_json::Value, name: &str) {
     let label: Vec<u64> = x["label"]
         .as_array()
@@ -204,7 +205,13 @@ fn experts_agree_with_metrics(x: &serde_json::Value, m: &serde_json::Value, name
     assert_eq!(conditions.len(), 1 + noise.len(), "{name}");
     for (k, c) in conditions.iter().enumerate() {
         let part = |key: &str| c[key].as_array().unwrap().clone();
-        let (a, s, kin) = (part("network"), part("spectral"), part("kinematic"));
+        let (a, s, kin, vote) = (
+            part("network"),
+            part("spectral"),
+            part("kinematic"),
+            part("line_vote"),
+        );
+        assert_eq!(vote.len(), label.len(), "{name}: the DS-STGAT has a vote");
         assert_eq!(a.len(), label.len(), "{name}");
         let mut correct = 0;
         for (j, &y) in label.iter().enumerate() {
@@ -215,8 +222,8 @@ fn experts_agree_with_metrics(x: &serde_json::Value, m: &serde_json::Value, name
                     .map(|v| v.as_f64().unwrap())
                     .collect()
             };
-            let (ra, rs, rk) = (row(&a), row(&s), row(&kin));
-            let logit = |i: usize| w[0] * ra[i] + w[1] * rs[i] + w[2] * rk[i];
+            let (ra, rs, rk, rv) = (row(&a), row(&s), row(&kin), row(&vote));
+            let logit = |i: usize| w[0] * ra[i] + w[1] * rs[i] + w[2] * rk[i] + rv[i];
             let best = (0..ra.len())
                 .max_by(|&p, &q| logit(p).total_cmp(&logit(q)))
                 .unwrap();
