@@ -1281,9 +1281,11 @@ pub fn train<const N: usize>(
     device.seed(cfg.seed);
     let classes = data.classes().len();
     let t_total = Instant::now();
-    // The vote is not trained; it is here so that the monitored accuracies are the
-    // model's.
-    let net = Network::init(cfg, classes, &device)?.with_line_vote(&data.norm, data.classes())?;
+    // No defect-line vote here: it has no weights and enters no loss, so training
+    // leaves it out (it would only add a host round trip per batch); the monitored
+    // accuracies are those of the trained parts, and every evaluation adds the vote
+    // (`Network::with_line_vote`).
+    let net = Network::init(cfg, classes, &device)?;
     let test = &data.test;
     let batch = cfg.eval_batch_size;
     macro_rules! run {
