@@ -188,18 +188,15 @@ fn train_eval_predict_compare_on_cwru() {
 /// with the defect-line vote, give the clean accuracy and the noise curve of
 /// `metrics.json`.
 fn experts_agree_with_metrics(x: &serde_json::Value, m: &serde_json::Value, name: &str) {
-    let label: Vec<u64> = x["label"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|v| v.as_u64().unwrap())
-        .collect();
-    let w: Vec<f64> = x["weights"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|v| v.as_f64().unwrap())
-        .collect();
+    let numbers = |v: &serde_json::Value| -> Vec<f64> {
+        v.as_array()
+            .unwrap()
+            .iter()
+            .map(|n| n.as_f64().unwrap())
+            .collect()
+    };
+    let label: Vec<usize> = numbers(&x["label"]).iter().map(|&l| l as usize).collect();
+    let w = numbers(&x["weights"]);
     let conditions = x["conditions"].as_array().unwrap();
     let noise = m["noise"].as_array().unwrap();
     assert_eq!(conditions.len(), 1 + noise.len(), "{name}");
@@ -215,19 +212,13 @@ fn experts_agree_with_metrics(x: &serde_json::Value, m: &serde_json::Value, name
         assert_eq!(a.len(), label.len(), "{name}");
         let mut correct = 0;
         for (j, &y) in label.iter().enumerate() {
-            let row = |p: &[serde_json::Value]| -> Vec<f64> {
-                p[j].as_array()
-                    .unwrap()
-                    .iter()
-                    .map(|v| v.as_f64().unwrap())
-                    .collect()
-            };
+            let row = |p: &[serde_json::Value]| numbers(&p[j]);
             let (ra, rs, rk, rv) = (row(&a), row(&s), row(&kin), row(&vote));
             let logit = |i: usize| w[0] * ra[i] + w[1] * rs[i] + w[2] * rk[i] + rv[i];
             let best = (0..ra.len())
                 .max_by(|&p, &q| logit(p).total_cmp(&logit(q)))
                 .unwrap();
-            correct += usize::from(best as u64 == y);
+            correct += usize::from(best == y);
         }
         let acc = correct as f64 / label.len() as f64;
         let want = if k == 0 {
