@@ -278,19 +278,29 @@ impl<const C: usize> LineVote<C> {
         Ok(())
     }
 
-    /// The votes `[C]` of a window from its sensor head input (slot 0 is node 0's
-    /// window-mean normalized features, [`sensor_head_input`]); zero when node 0 is
-    /// absent.
+    /// Node 0's window-mean defect lines `L` in dB over the envelope median (BPFO,
+    /// BPFI, BSF: [`LINE_VOTE_FEATURES`]), the normalization undone, from a window's
+    /// sensor head input (slot 0 is node 0's window-mean normalized features,
+    /// [`sensor_head_input`]).
+    pub fn lines_db(&self, head_input: &[f32]) -> [f32; 3] {
+        let mut db = [0.0f32; 3];
+        for (l, d) in db.iter_mut().enumerate() {
+            let x = head_input.get(LINE_SLOT[l]).copied().unwrap_or(0.0);
+            *d = self.std[l] * x + self.mean[l];
+        }
+        db
+    }
+
+    /// The votes `[C]` of a window from its sensor head input ([`LineVote::lines_db`]);
+    /// zero when node 0 is absent.
     pub fn votes(&self, head_input: &[f32], node0_present: bool) -> [f32; C] {
         let mut out = [0.0; C];
         if !node0_present {
             return out;
         }
-        let mut strength = [0.0f32; 3];
-        for (l, s) in strength.iter_mut().enumerate() {
-            let x = head_input.get(LINE_SLOT[l]).copied().unwrap_or(0.0);
-            let db = self.std[l] * x + self.mean[l];
-            let v = LINE_VOTE_WEIGHT * (db - LINE_VOTE_THRESHOLD_DB);
+        let mut strength = self.lines_db(head_input);
+        for s in strength.iter_mut() {
+            let v = LINE_VOTE_WEIGHT * (*s - LINE_VOTE_THRESHOLD_DB);
             *s = if v > 0.0 { v } else { 0.0 }; // also maps NaN to 0
         }
         for (o, &l) in out.iter_mut().zip(&self.line) {
@@ -1091,6 +1101,12 @@ mod tests {
         head[LINE_SLOT[1]] = -0.5;
         head[LINE_SLOT[2]] = f32::NAN;
         head[SENSOR_HEAD_DIM + LINE_SLOT[1]] = 10.0;
+        let db = vote.lines_db(&head);
+        assert_eq!(
+            db[..2],
+            [LINE_VOTE_THRESHOLD_DB + 3.0, LINE_VOTE_THRESHOLD_DB - 1.0]
+        );
+        assert!(db[2].is_nan());
         let v = vote.votes(&head, true);
         assert_eq!(v, [0.0, LINE_VOTE_WEIGHT * 3.0, 0.0, 0.0, 0.0]);
         assert_eq!(vote.votes(&head, false), [0.0; 5], "node 0 absent: no vote");

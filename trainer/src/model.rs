@@ -45,8 +45,8 @@
 //! by the core window by window (no second implementation here): node 0's envelope
 //! lines at BPFO, BPFI and BSF in dB over the envelope median vote for the classes of
 //! their fault type. It has no weights to train; [`DsStgat::with_line_vote`] gives it
-//! the data's normalization and class names. Why it is there and how `τ`, `β` were
-//! chosen: [`DsStgat::with_line_vote`].
+//! the data's normalization and class names, and says why it is there and how `τ`,
+//! `β` were chosen.
 //!
 //! The pooling reads the source node 0 (the sensor on the monitored bearing) when it
 //! is present, every present node otherwise ([`readout_mask`], the core's

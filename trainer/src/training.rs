@@ -73,6 +73,7 @@ use burn::optim::decay::WeightDecayConfig;
 use burn::optim::{AdamConfig, GradientsAccumulator, GradientsParams};
 use burn::tensor::activation::log_softmax;
 use burn::tensor::{Device, Int, Tensor, TensorData};
+use pumptwin_core::dsstgat::{LineVote, MODEL_CLASSES};
 use pumptwin_core::features::{FeatureNorm, FEATURE_DIM};
 use pumptwin_core::rng::Xoshiro128pp;
 use serde::Serialize;
@@ -1547,16 +1548,15 @@ pub struct ExpertLogits {
 }
 
 /// The three parts' logits of `model` over `ds` (see [`ExpertLogits`]), with the
-/// vote and its inputs (`norm`: the features' normalization).
+/// vote `line_vote` (the model's) and its inputs.
 fn expert_condition(
     model: &DsStgat,
+    line_vote: &LineVote<MODEL_CLASSES>,
     ds: &Dataset,
-    norm: &FeatureNorm,
     snr_db: Option<f32>,
     batch_size: usize,
     device: &Device,
 ) -> ExpertCondition {
-    use pumptwin_core::dsstgat::{LINE_VOTE_FEATURES, SENSOR_HEAD_FEATURES};
     let rows = |t: Tensor<2>| -> Vec<Vec<f32>> {
         let c = t.dims()[1];
         let v = t.into_data().try_into_vec::<f32>().unwrap_or_default();
@@ -1570,12 +1570,6 @@ fn expert_condition(
         line_vote: Vec::new(),
         node0_lines_db: Vec::new(),
     };
-    let slot = LINE_VOTE_FEATURES.map(|f| {
-        SENSOR_HEAD_FEATURES
-            .iter()
-            .position(|&g| g == f)
-            .expect("the vote's lines are sensor head features")
-    });
     let idx: Vec<usize> = (0..ds.len()).collect();
     for chunk in idx.chunks(batch_size.max(1)) {
         let b = Batch::new(ds, chunk, device);
@@ -1589,12 +1583,8 @@ fn expert_condition(
             out.line_vote.extend(rows(v));
         }
         for (row, &w) in head.iter().zip(chunk) {
-            out.node0_lines_db.push(ds.mask[w * ds.nodes].then(|| {
-                std::array::from_fn(|l| {
-                    let f = LINE_VOTE_FEATURES[l];
-                    row[slot[l]] * norm.std[f] + norm.mean[f]
-                })
-            }));
+            out.node0_lines_db
+                .push(ds.mask[w * ds.nodes].then(|| line_vote.lines_db(row)));
         }
     }
     out
@@ -1615,10 +1605,13 @@ fn write_experts<const N: usize>(
             cfg.report_name()
         );
     };
+    let line_vote = model
+        .line_vote
+        .as_ref()
+        .context("--experts needs the model's defect-line vote (DsStgat::with_line_vote)")?;
     let batch = cfg.eval_batch_size;
-    let norm = &data.norm;
     let mut conditions = vec![expert_condition(
-        model, &data.test, norm, None, batch, device,
+        model, line_vote, &data.test, None, batch, device,
     )];
     for k in 0..crate::metrics::NOISE_SNR_DB.len() {
         let spec = crate::metrics::noise_spec(cfg.seed, k);
@@ -1627,8 +1620,8 @@ fn write_experts<const N: usize>(
             .with_context(|| format!("cannot featurize the test side at {} dB", spec.snr_db))?;
         conditions.push(expert_condition(
             model,
+            line_vote,
             &noisy,
-            norm,
             Some(spec.snr_db),
             batch,
             device,
@@ -1672,9 +1665,10 @@ pub struct EvalArgs {
     #[arg(long)]
     pub no_figures: bool,
     /// Also write the DS-STGAT's three parts' logits (network, spectral expert,
-    /// kinematic expert) per test window, clean and at every SNR of the noise curve, to
-    /// this JSON file ([`ExpertLogits`]; read by `scripts/expert-fusion.py`). Burn
-    /// DS-STGAT models only.
+    /// kinematic expert), its defect-line vote and node 0's defect lines per test
+    /// window, clean and at every SNR of the noise curve, to this JSON file
+    /// ([`ExpertLogits`]; read by `scripts/expert_fusion.py`). Burn DS-STGAT models
+    /// only.
     #[arg(long)]
     pub experts: Option<PathBuf>,
 }
