@@ -653,6 +653,38 @@ impl FeatureConfig {
         }
     }
 
+    /// Whether the shaft rate lets the envelope features read the defect lines in
+    /// windows of `window` samples: the lowest of BPFO, BPFI and BSF at least two bins
+    /// of the window's envelope spectrum (`fs / window` Hz per bin), and the second
+    /// harmonic of the highest (the features read two) inside the envelope band's
+    /// width, since the envelope of a band carries no modulation faster than the band
+    /// is wide. Outside that range the lines the model reads fall on bin 0 or beyond
+    /// the envelope's reach — a wrong speed or rate, not a signal fault — so callers
+    /// check it once, before the windows (`--rpm 1` or `1e9` are refused, not
+    /// diagnosed).
+    pub fn check_speed(&self, window: usize) -> Result<()> {
+        let shaft = self.shaft_hz;
+        if !(shaft.is_finite() && shaft > 0.0 && self.fs_hz.is_finite() && self.fs_hz > 0.0) {
+            return Err(Error::InvalidParameter(
+                "sampling rate and shaft rate must be finite and > 0",
+            ));
+        }
+        let o = self.orders;
+        let lowest = o.bpfo.min(o.bpfi).min(o.bsf) * shaft;
+        let highest = o.bpfo.max(o.bpfi).max(o.bsf) * shaft;
+        if lowest < 2.0 * self.fs_hz / window.max(1) as f32 {
+            return Err(Error::InvalidParameter(
+                "shaft speed too low: the lowest defect frequency is under two bins of the window's envelope spectrum",
+            ));
+        }
+        if 2.0 * highest > self.envelope_band.hi_hz - self.envelope_band.lo_hz {
+            return Err(Error::InvalidParameter(
+                "shaft speed too high: the defect lines' second harmonics lie beyond the envelope band's width",
+            ));
+        }
+        Ok(())
+    }
+
     fn validate(&self, window: usize) -> Result<()> {
         let v = [
             self.fs_hz,
@@ -1526,5 +1558,33 @@ mod tests {
             ),
             Err(Error::NonFinite)
         );
+    }
+
+    #[test]
+    fn check_speed_keeps_the_lines_inside_the_envelope() {
+        let cfg = |rpm: f32| {
+            FeatureConfig::standard(12_000.0, rpm / 60.0, BearingGeometry::CWRU_6205_DE.orders())
+        };
+        // Every CWRU speed, and a slow and a fast pump.
+        for rpm in [1797.0, 1720.0, 600.0, 12_000.0] {
+            assert_eq!(cfg(rpm).check_speed(2048), Ok(()), "{rpm} rpm");
+        }
+        // BSF 2.357 x 4 Hz = 9.4 Hz < two bins (11.7 Hz); 2 x BPFI at 30 000 rpm =
+        // 5.4 kHz > the 4.5 kHz band; and what is no speed at all.
+        for rpm in [
+            1.0,
+            240.0,
+            30_000.0,
+            1e9,
+            0.0,
+            -1797.0,
+            f32::NAN,
+            f32::INFINITY,
+        ] {
+            assert!(
+                matches!(cfg(rpm).check_speed(2048), Err(Error::InvalidParameter(_))),
+                "{rpm} rpm"
+            );
+        }
     }
 }

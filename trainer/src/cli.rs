@@ -9,7 +9,7 @@ use crate::featurize::{
 use crate::plot::{line_plot, PlotSpec, Series};
 use crate::sim::{location_name, simulate, SimulationSpec};
 use crate::twin::signature::welch;
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, ensure, Context, Result};
 use pumptwin_core::bearing::{BearingGeometry, DefectLocation};
 use pumptwin_core::features::{envelope_spectrum, EnvelopeBand, FEATURE_DIM, FEATURE_NAMES};
 use pumptwin_core::fft::{power_spectrum, Complex32, Window};
@@ -315,14 +315,41 @@ pub struct LoadedRecord {
 impl RecordArgs {
     /// Load, check and preprocess the record.
     pub fn load(&self) -> Result<LoadedRecord> {
+        // The flags first: a bad value is the user's, not the file's.
+        if let Some(fs) = self.fs {
+            ensure!(
+                fs.is_finite() && fs > 0.0,
+                "--fs {fs}: a sampling rate must be finite and > 0 Hz"
+            );
+        }
+        if let Some(rpm) = self.rpm {
+            ensure!(
+                rpm.is_finite() && rpm > 0.0,
+                "--rpm {rpm}: a shaft speed must be finite and > 0 rev/min"
+            );
+        }
+        let bearing = parse_bearing(&self.bearing)?;
         let raw = load_recording(&self.input, self.fs, self.rpm)
             .with_context(|| format!("load {}", self.input.display()))?;
         let rpm = self
             .rpm
             .or(raw.rpm)
             .context("shaft speed unknown: pass --rpm")?;
-        let bearing = parse_bearing(&self.bearing)?;
         let rec = preprocess(&raw, &PreprocessConfig::default()).context("preprocess")?;
+        // Once for the record, before any window: a speed whose defect lines the
+        // envelope cannot read is refused, not diagnosed.
+        feature_config(rec.fs_hz, rpm / 60.0, bearing.orders())
+            .check_speed(WINDOW)
+            .map_err(|e| {
+                let f = bearing.frequencies(rpm / 60.0);
+                anyhow::anyhow!(
+                    "{rpm} rpm with bearing {}: {e} (BSF {:.1} Hz, BPFI {:.1} Hz at {} Hz, windows of {WINDOW})",
+                    self.bearing,
+                    f.bsf,
+                    f.bpfi,
+                    rec.fs_hz
+                )
+            })?;
         Ok(LoadedRecord {
             raw,
             rec,

@@ -339,14 +339,29 @@ pub struct LoadedModel {
     pub model: InferenceModel,
 }
 
-/// Whether `path` starts with the model file's magic.
+/// Whether `path` is to be read as an int8 model file: it starts with the model
+/// file's magic, or it is not a burn record (`.bpk`, read with the `config.json`
+/// beside it). So an empty, damaged or foreign file gets the model file's own error
+/// ("not a valid model file: bad magic", ...), not a missing `config.json`.
 pub fn is_model_file(path: &Path) -> bool {
     use std::io::Read;
     let mut magic = [0u8; 8];
-    std::fs::File::open(path)
+    let has_magic = std::fs::File::open(path)
         .and_then(|mut f| f.read_exact(&mut magic))
         .is_ok()
-        && magic == model_file::MAGIC
+        && magic == model_file::MAGIC;
+    has_magic || path.extension().and_then(|e| e.to_str()) != Some("bpk")
+}
+
+/// The model path names an existing file (checked before anything is read beside it).
+pub fn check_model_path(path: &Path) -> Result<()> {
+    anyhow::ensure!(
+        path.is_file(),
+        "model {}: no such file (an int8 model file `.ptm`, or a burn `model.bpk` with \
+         its config.json beside it)",
+        path.display()
+    );
+    Ok(())
 }
 
 /// Read, decode and build a model file.

@@ -3,11 +3,15 @@
 //!
 //! ```text
 //! FILE (.mat / .csv) → channels DE, FE, BA by name (.mat variables by channel suffix)
-//!   → model rate (12 kHz): integer-ratio rates anti-aliased and decimated, the common
-//!     5 kHz band limit (data::preprocess, as in training)
+//!   → model rate (12 kHz): integer-ratio rates anti-aliased and decimated, other
+//!     rates (25.6, 44.1, 64, 97.656 kHz, ...) resampled by the same windowed sinc,
+//!     the common 5 kHz band limit (data::preprocess, as in training); a speed whose
+//!     defect lines the envelope cannot read refused (FeatureConfig::check_speed)
+//!   → columns named DE/FE/BA in any case or as a token (`de`, `X105_DE_time`)
 //!   → windows 2048 / hop 1024 → core features; a channel the file lacks is masked
 //!   → the model's normalization → dynamic graphs (core, eqs. 1–3) → model
-//!   → per-window class and probabilities, the record's majority class
+//!   → per-window class and probabilities, the record's majority class; a window
+//!     with no usable sensor is `no_signal`, counted and left out of the majority
 //! ```
 
 use std::collections::BTreeMap;
@@ -40,6 +44,9 @@ enum PredictModel {
         net: Network,
     },
 }
+
+/// The class of a window with no usable sensor.
+pub const NO_SIGNAL: &str = "no_signal";
 
 /// Samples between window starts.
 pub const HOP: usize = WINDOW / 2;
@@ -89,9 +96,12 @@ pub struct Prediction {
     pub resampled: bool,
     /// Model sensors the recording does not have (masked in every window).
     pub missing_nodes: Vec<String>,
+    /// Windows with no usable sensor: class [`NO_SIGNAL`], no probabilities, left
+    /// out of the majority.
+    pub no_signal_windows: usize,
     /// Per window.
     pub windows: Vec<WindowPrediction>,
-    /// The most frequent class over the windows.
+    /// The most frequent class over the diagnosed windows.
     pub majority_class: String,
     /// Windows per class.
     pub class_counts: BTreeMap<String, usize>,
@@ -99,6 +109,7 @@ pub struct Prediction {
 
 /// Run `pumptwin predict`.
 pub fn run_predict(args: &PredictArgs) -> Result<()> {
+    crate::export::check_model_path(&args.model)?;
     let LoadedRecord {
         raw,
         rec,
@@ -189,6 +200,31 @@ fn predict_with<const N: usize>(
         .filter(|n| src.channel(n).is_none())
         .map(|n| (*n).to_string())
         .collect();
+    anyhow::ensure!(
+        missing.len() < N,
+        "{}: none of its channels {:?} is a sensor of the model ({}); name the CSV columns \
+         (or the .mat variables' suffixes) after the model's sensors",
+        args.record.input.display(),
+        rec.channels
+            .iter()
+            .map(|c| c.name.as_str())
+            .collect::<Vec<_>>(),
+        nodes.join(", ")
+    );
+    // A window with no usable sensor (every channel missing, dead or non-finite
+    // there) has nothing to diagnose: it is reported as `no_signal`, counted, and
+    // left out of the model and the majority, never given a class.
+    let usable: Vec<bool> = wf.iter().map(|w| w.mask.0.iter().any(|&m| m)).collect();
+    let no_signal = usable.iter().filter(|&&u| !u).count();
+    anyhow::ensure!(
+        no_signal < wf.len(),
+        "{}: no window has a usable sensor ({} windows; masked node-windows: {} missing \
+         channel, {} dead or non-finite signal)",
+        args.record.input.display(),
+        wf.len(),
+        counts.missing_channel,
+        counts.rejected_signal
+    );
     let (classes, norm, graph) = match model {
         PredictModel::Int8(m) => {
             let (norm, _) = m.norms()?;
@@ -199,14 +235,13 @@ fn predict_with<const N: usize>(
     // The raw samples too, for a raw-signal baseline.
     let with_raw = matches!(model, PredictModel::Burn { net, .. } if net.raw());
     let mut ds = Dataset::new(N);
-    for w in &wf {
+    for (k, w) in wf.iter().enumerate().filter(|&(k, _)| usable[k]) {
         let (x, a) = window_graphs(w, &norm, &graph)
             .map_err(|e| anyhow::anyhow!("window at sample {}: {e}", w.start))?;
         ds.push(&x, &a, &w.mask.0, &[0.0; N_INDICATORS], 0, 0);
         if with_raw {
             let o = ds.raw.len();
             ds.raw.resize(o + ds.raw_per_window(), 0.0);
-            let k = ds.len() - 1;
             copy_window_samples(src, &nodes, src_starts[k], &mut ds.raw[o..]);
         }
     }
@@ -243,14 +278,24 @@ fn predict_with<const N: usize>(
     };
     let mut windows = Vec::with_capacity(wf.len());
     let mut class_counts: BTreeMap<String, usize> = BTreeMap::new();
-    for (w, p) in wf.iter().zip(&probs) {
-        let best = (0..p.len()).fold(0, |b, c| if p[c] > p[b] { c } else { b });
-        let class = classes.get(best).cloned().unwrap_or_default();
-        *class_counts.entry(class.clone()).or_default() += 1;
+    let mut probs = probs.iter();
+    for (w, &ok) in wf.iter().zip(&usable) {
+        let (class, probabilities) = match (ok, if ok { probs.next() } else { None }) {
+            (true, Some(p)) => {
+                let best = (0..p.len()).fold(0, |b, c| if p[c] > p[b] { c } else { b });
+                let class = classes.get(best).cloned().unwrap_or_default();
+                *class_counts.entry(class.clone()).or_default() += 1;
+                (
+                    class,
+                    classes.iter().cloned().zip(p.iter().copied()).collect(),
+                )
+            }
+            _ => (NO_SIGNAL.to_string(), BTreeMap::new()),
+        };
         windows.push(WindowPrediction {
             start_s: w.start as f64 / f64::from(rec.fs_hz),
             class,
-            probabilities: classes.iter().cloned().zip(p.iter().copied()).collect(),
+            probabilities,
             masked_nodes: nodes
                 .iter()
                 .zip(w.mask.0)
@@ -275,6 +320,7 @@ fn predict_with<const N: usize>(
         fs_hz_model: rec.fs_hz,
         resampled: (fs_hz_input - rec.fs_hz).abs() > 1e-3,
         missing_nodes: missing,
+        no_signal_windows: no_signal,
         windows,
         majority_class,
         class_counts,
@@ -289,7 +335,7 @@ fn predict_with<const N: usize>(
         }
     }
     eprintln!(
-        "{}: {} windows at {} Hz{}; majority class {} ({} of {}){}",
+        "{}: {} windows at {} Hz{}; majority class {} ({} of {}){}{}",
         report.input,
         report.windows.len(),
         report.fs_hz_model,
@@ -303,7 +349,15 @@ fn predict_with<const N: usize>(
             .class_counts
             .get(&report.majority_class)
             .unwrap_or(&0),
-        report.windows.len(),
+        report.windows.len() - report.no_signal_windows,
+        if report.no_signal_windows > 0 {
+            format!(
+                "; {} windows with no usable sensor (no_signal, not diagnosed)",
+                report.no_signal_windows
+            )
+        } else {
+            String::new()
+        },
         if report.missing_nodes.is_empty() {
             String::new()
         } else {

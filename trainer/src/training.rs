@@ -2069,6 +2069,7 @@ pub fn evaluate_network<const N: usize>(
 /// Run `pumptwin eval`: a burn model (`model.bpk`, any architecture) or an int8 model
 /// file.
 pub fn run_eval(args: &EvalArgs) -> Result<()> {
+    crate::export::check_model_path(&args.model)?;
     if crate::export::is_model_file(&args.model) {
         return run_eval_int8(args);
     }

@@ -1,7 +1,10 @@
 //! `pumptwin predict` on the shipped 1 s fixture of record 105 (inner race, 0.007"):
 //! the int8 model through the core, and the burn float model, both call it IR007;
 //! with only the DE channel the other nodes are masked, the output says so, and the
-//! diagnosis still holds.
+//! diagnosis still holds. The same seconds at another rig's rate (25.6 kHz, a
+//! non-integer ratio to the model's 12 kHz), under lower-case column names, and with
+//! a stretch where every sensor is silent: still IR007, the silent windows reported
+//! as `no_signal` and left out of the majority.
 
 use std::path::{Path, PathBuf};
 
@@ -13,10 +16,14 @@ fn root() -> PathBuf {
 }
 
 fn predict(input: &Path, model: &str, out: &Path) -> serde_json::Value {
+    predict_at(input, 12_000.0, model, out)
+}
+
+fn predict_at(input: &Path, fs: f32, model: &str, out: &Path) -> serde_json::Value {
     run_predict(&PredictArgs {
         record: RecordArgs {
             input: input.to_owned(),
-            fs: Some(12_000.0),
+            fs: Some(fs),
             rpm: Some(1797.0),
             bearing: "cwru-6205-de".into(),
         },
@@ -60,5 +67,98 @@ fn predict_fixture_with_int8_and_float_models_and_a_channel_subset() {
         serde_json::json!(["FE", "BA"])
     );
     assert_eq!(r["majority_class"], "IR007");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The fixture's columns (DE, FE, BA) as read.
+fn fixture_columns() -> Vec<Vec<f64>> {
+    let text = std::fs::read_to_string(root().join("tests/data/cwru105_1s.csv")).unwrap();
+    let mut cols = vec![Vec::new(); 3];
+    for l in text.lines().filter(|l| !l.starts_with('#')).skip(1) {
+        for (c, v) in cols.iter_mut().zip(l.split(',')) {
+            c.push(v.trim().parse::<f64>().unwrap());
+        }
+    }
+    cols
+}
+
+/// Band-limited interpolation of `x` to `m` samples (spectrum zero-padded).
+fn interpolate(x: &[f64], m: usize) -> Vec<f64> {
+    use rustfft::{num_complex::Complex, FftPlanner};
+    let n = x.len();
+    let mut planner = FftPlanner::<f64>::new();
+    let mut s: Vec<Complex<f64>> = x.iter().map(|&v| Complex::new(v, 0.0)).collect();
+    planner.plan_fft_forward(n).process(&mut s);
+    let mut y = vec![Complex::new(0.0, 0.0); m];
+    for k in 0..n / 2 {
+        y[k] = s[k];
+        if k > 0 {
+            y[m - k] = s[n - k];
+        }
+    }
+    planner.plan_fft_inverse(m).process(&mut y);
+    y.iter().map(|v| v.re / n as f64).collect()
+}
+
+fn write_csv(path: &Path, header: &str, cols: &[Vec<f64>]) {
+    let mut text = format!("{header}\n");
+    for i in 0..cols[0].len() {
+        let row: Vec<String> = cols.iter().map(|c| format!("{:.6}", c[i])).collect();
+        text.push_str(&row.join(","));
+        text.push('\n');
+    }
+    std::fs::write(path, text).unwrap();
+}
+
+#[test]
+fn predict_at_another_rate_under_other_names_and_with_a_silent_stretch() {
+    let dir = std::env::temp_dir().join(format!("pumptwin-predict-rig-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let cols = fixture_columns();
+    // 25.6 kHz: 1 s of 12 000 samples becomes 25 600.
+    let fast: Vec<Vec<f64>> = cols.iter().map(|c| interpolate(c, 25_600)).collect();
+    let path = dir.join("rig25k6.csv");
+    write_csv(&path, "de,X105_FE_time,Ba", &fast);
+    let r = predict_at(
+        &path,
+        25_600.0,
+        "models/dsstgat-cwru-tb.ptm",
+        &dir.join("a.json"),
+    );
+    assert_eq!(r["resampled"], true);
+    assert_eq!(r["missing_nodes"].as_array().unwrap().len(), 0);
+    assert_eq!(r["windows"].as_array().unwrap().len(), 10);
+    assert_eq!(r["majority_class"], "IR007", "{}", r["class_counts"]);
+    // Every sensor silent over samples 4 000..8 200: a sensor with a constant
+    // segment (256 samples) in a window is dead there, so the five windows that hold
+    // a whole silent segment (starting at 3 072 to 7 168) have no usable sensor.
+    let mut silent = cols.clone();
+    for c in &mut silent {
+        c[4_000..8_200].iter_mut().for_each(|v| *v = 0.0);
+    }
+    let path = dir.join("silent.csv");
+    write_csv(&path, "DE,FE,BA", &silent);
+    for model in [
+        "models/dsstgat-cwru-tb.ptm",
+        "models/dsstgat-cwru-tb.float/model.bpk",
+    ] {
+        let r = predict(&path, model, &dir.join("b.json"));
+        assert_eq!(r["no_signal_windows"], 5, "{model}");
+        let w = r["windows"].as_array().unwrap();
+        let classes: Vec<&str> = w.iter().map(|w| w["class"].as_str().unwrap()).collect();
+        assert_eq!(classes[3..8], ["no_signal"; 5], "{model}");
+        assert!(!classes[..3].contains(&"no_signal") && !classes[8..].contains(&"no_signal"));
+        assert_eq!(w[5]["probabilities"], serde_json::json!({}));
+        assert_eq!(r["majority_class"], "IR007", "{model}");
+        assert_eq!(
+            r["class_counts"]
+                .as_object()
+                .unwrap()
+                .values()
+                .map(|v| v.as_u64().unwrap())
+                .sum::<u64>(),
+            5
+        );
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -11,6 +11,13 @@
 //! The delimiter (comma, semicolon or tab) is detected from the header row and then
 //! required on every row. A file with a single column has no delimiter at all.
 //!
+//! A column names a sensor when its name is `DE`, `FE` or `BA` in any case, alone or
+//! as one `_`/`-`/space/`.`-separated token of a longer name (`de`, `DE_time`,
+//! `X105_DE_time`, `fe accel`); the channel then carries the sensor's name. Names
+//! with none of the three, or with two, keep their own (and so do two columns that
+//! would both become the same sensor). A header whose cells are all numbers is a
+//! missing header, not channel names.
+//!
 //! A CSV carries no sampling rate or shaft speed, and guessing either would silently
 //! distort every frequency feature, so both come from the caller (CLI flags); there
 //! are no defaults. Every cell must be a finite number: a blank, text, NaN or infinite
@@ -145,6 +152,15 @@ pub fn parse_csv(
             });
         }
     }
+    if names.iter().all(|n| n.parse::<f64>().is_ok()) {
+        return Err(CsvError::BadHeader {
+            reason: format!(
+                "the first row ({header:?}) is numbers: a CSV needs a header row naming the \
+                 channels (DE, FE, BA)"
+            ),
+        });
+    }
+    let names = sensor_names(names);
     let mut columns: Vec<Vec<f32>> = vec![Vec::new(); names.len()];
     for (line, text) in lines {
         let row = cells(text, delimiter);
@@ -186,6 +202,40 @@ pub fn parse_csv(
             .map(|(name, samples)| Channel { name, samples })
             .collect(),
     })
+}
+
+/// The sensor each column names (module docs), or its own name.
+fn sensor_names(names: Vec<String>) -> Vec<String> {
+    let sensor = |n: &str| -> Option<&'static str> {
+        let mut found = None;
+        for token in n.split(['_', '-', ' ', '.']) {
+            let s = ["DE", "FE", "BA"]
+                .into_iter()
+                .find(|s| token.eq_ignore_ascii_case(s));
+            match (found, s) {
+                (_, None) => {}
+                (None, Some(s)) => found = Some(s),
+                (Some(f), Some(s)) if f != s => return None,
+                (Some(_), Some(_)) => {}
+            }
+        }
+        found
+    };
+    let mapped: Vec<Option<&str>> = names.iter().map(|n| sensor(n)).collect();
+    names
+        .iter()
+        .zip(&mapped)
+        .map(|(n, m)| match m {
+            // Unique among the columns, and no other column already has that name.
+            Some(s)
+                if mapped.iter().filter(|o| *o == m).count() == 1
+                    && !names.iter().any(|o| o == s && o != n) =>
+            {
+                (*s).to_string()
+            }
+            _ => n.clone(),
+        })
+        .collect()
 }
 
 /// Name a recording after its file stem.
@@ -289,5 +339,33 @@ mod tests {
         // Semicolon header: a comma inside a cell is not a delimiter, so "1,5" is a bad number.
         let err = parse_csv("DE;FE\n1,5;2\n", "x", 1.0, None).expect_err("decimal comma");
         assert!(matches!(err, CsvError::NotANumber { .. }), "{err}");
+    }
+
+    #[test]
+    fn columns_name_sensors_in_any_case_and_as_tokens() {
+        let rec = parse_csv(
+            "de;X105_FE_time;Ba accel;temp\n1;2;3;4\n",
+            "r",
+            12_000.0,
+            None,
+        )
+        .expect("parsed");
+        let names: Vec<&str> = rec.channels.iter().map(|c| c.name.as_str()).collect();
+        assert_eq!(names, ["DE", "FE", "BA", "temp"]);
+        // Two columns for one sensor, or one name for two: each keeps its own.
+        let rec = parse_csv("de,DE_time,DE_FE\n1,2,3\n", "r", 12_000.0, None).expect("parsed");
+        let names: Vec<&str> = rec.channels.iter().map(|c| c.name.as_str()).collect();
+        assert_eq!(names, ["de", "DE_time", "DE_FE"]);
+        let rec = parse_csv("DE,de_time\n1,2\n", "r", 12_000.0, None).expect("parsed");
+        let names: Vec<&str> = rec.channels.iter().map(|c| c.name.as_str()).collect();
+        assert_eq!(names, ["DE", "de_time"]);
+    }
+
+    #[test]
+    fn a_row_of_numbers_is_no_header() {
+        let err =
+            parse_csv("0.1,0.2,0.3\n0.4,0.5,0.6\n", "r", 12_000.0, None).expect_err("no header");
+        assert!(matches!(err, CsvError::BadHeader { .. }), "{err}");
+        assert!(err.to_string().contains("header row"), "{err}");
     }
 }

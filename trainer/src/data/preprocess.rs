@@ -5,10 +5,15 @@
 //!
 //! 1. **Rate.** A recording at an integer multiple `M` of the model rate (CWRU's
 //!    48 kHz normal record, `M = 4`, for the 12 kHz model) is low-passed and every
-//!    `M`-th sample kept. Non-integer ratios (e.g. 44.1 kHz → 12 kHz) need a
-//!    polyphase resampler that is not written yet; they are refused with an error
-//!    that says so, rather than resampled badly. Recordings slower than the model
-//!    rate are refused too (upsampling cannot create the missing band).
+//!    `M`-th sample kept. A non-integer ratio `r` (25.6, 44.1, 64 or 97.656 kHz →
+//!    12 kHz) goes through [`Resampler`]: the same Blackman-windowed sinc,
+//!    evaluated at the fractional source positions `m·r` (a table of the kernel,
+//!    512 steps per source sample, linearly interpolated), each output normalized
+//!    by its weights' sum so that every phase passes DC at gain 1. At an integer
+//!    `r` it reproduces the decimator (tested). Recordings slower than the model
+//!    rate are refused (upsampling cannot create the missing band), and so are
+//!    rates above [`MAX_RATE_RATIO`] times the model rate (a wrong `--fs`, not an
+//!    acquisition: the filter grows with the ratio).
 //! 2. **Common band limit** ([`BAND_LIMIT_HZ`], 5 kHz by default). The guard against
 //!    an acquisition shortcut: the CWRU normal record reaches 12 kHz through a
 //!    different chain (48 kHz) and carries far more energy above 5.5 kHz than the
@@ -94,6 +99,17 @@ pub enum PreprocessError {
         /// Model rate.
         target_fs_hz: f32,
     },
+    /// The source rate is implausibly far above the model rate.
+    #[error(
+        "{fs_hz} Hz is more than {MAX_RATE_RATIO} times the model rate {target_fs_hz} Hz; \
+         check the sampling rate, or decimate the recording first"
+    )]
+    TooFast {
+        /// Source rate.
+        fs_hz: f32,
+        /// Model rate.
+        target_fs_hz: f32,
+    },
     /// The configuration is unusable.
     #[error("bad preprocessing configuration: {reason}")]
     BadConfig {
@@ -117,6 +133,10 @@ pub enum PreprocessError {
     },
 }
 
+/// Largest source rate, as a multiple of the model rate, that is brought down (768 kHz
+/// for the 12 kHz model).
+pub const MAX_RATE_RATIO: f64 = 64.0;
+
 /// The decimation factor `M = fs / target` for an integer ratio.
 pub fn decimation_factor(fs_hz: f32, target_fs_hz: f32) -> Result<usize, PreprocessError> {
     if !(fs_hz.is_finite() && fs_hz > 0.0 && target_fs_hz.is_finite() && target_fs_hz > 0.0) {
@@ -127,6 +147,12 @@ pub fn decimation_factor(fs_hz: f32, target_fs_hz: f32) -> Result<usize, Preproc
         });
     }
     let ratio = f64::from(fs_hz) / f64::from(target_fs_hz);
+    if ratio > MAX_RATE_RATIO {
+        return Err(PreprocessError::TooFast {
+            fs_hz,
+            target_fs_hz,
+        });
+    }
     let factor = ratio.round();
     if (ratio - factor).abs() > 1e-6 * ratio {
         if ratio < 1.0 {
@@ -156,10 +182,133 @@ pub fn model_rate_len(
     fs_hz: f32,
     cfg: &PreprocessConfig,
 ) -> Result<usize, PreprocessError> {
-    Ok(decimated_len(
-        n,
-        decimation_factor(fs_hz, cfg.target_fs_hz)?,
-    ))
+    match decimation_factor(fs_hz, cfg.target_fs_hz) {
+        Ok(m) => Ok(decimated_len(n, m)),
+        Err(PreprocessError::NonIntegerRatio { ratio, .. }) => Ok(resampled_len(n, ratio)),
+        Err(e) => Err(e),
+    }
+}
+
+/// Output length of [`Resampler::apply`] for `n` source samples: the output times
+/// `m·r` that lie on the record, `0 ≤ m·r ≤ n − 1` (at an integer `r`,
+/// [`decimated_len`]).
+pub fn resampled_len(n: usize, ratio: f64) -> usize {
+    if n == 0 {
+        0
+    } else {
+        ((n - 1) as f64 / ratio).floor() as usize + 1
+    }
+}
+
+/// Kernel table steps per source sample.
+const TABLE_STEPS: usize = 512;
+
+/// Rate change by a non-integer ratio: the decimator's windowed-sinc low-pass,
+/// evaluated at fractional positions (module docs).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Resampler {
+    /// Source samples per output sample, `fs / target`.
+    pub ratio: f64,
+    /// Kernel half-width in source samples, `(L − 1) / 2` for the decimator's `L`.
+    half_width: usize,
+    /// The kernel at `|τ| = i / TABLE_STEPS` source samples, `i = 0 ..= half_width · TABLE_STEPS`.
+    table: Vec<f64>,
+}
+
+impl Resampler {
+    /// The resampler from `fs_hz` by `ratio` with cutoff `cutoff_hz`, with the
+    /// decimator's length rule: `taps_at_model · ratio` taps, made odd.
+    pub fn new(
+        ratio: f64,
+        cutoff_hz: f32,
+        fs_hz: f32,
+        taps_at_model: usize,
+    ) -> Result<Self, PreprocessError> {
+        let fc = f64::from(cutoff_hz) / f64::from(fs_hz);
+        if !(ratio.is_finite() && (1.0..=MAX_RATE_RATIO).contains(&ratio) && fc > 0.0 && fc < 0.5) {
+            return Err(PreprocessError::BadConfig {
+                reason: format!(
+                    "resampling ratio {ratio} with cutoff {cutoff_hz} Hz at {fs_hz} Hz"
+                ),
+            });
+        }
+        let len = (taps_at_model.max(3) as f64 * ratio).round() as usize;
+        let len = len + (1 - len % 2);
+        let half_width = (len - 1) / 2;
+        let h = half_width as f64;
+        let table = (0..=half_width * TABLE_STEPS)
+            .map(|i| {
+                let x = i as f64 / TABLE_STEPS as f64;
+                let sinc = if i == 0 {
+                    2.0 * fc
+                } else {
+                    (2.0 * std::f64::consts::PI * fc * x).sin() / (std::f64::consts::PI * x)
+                };
+                let a = std::f64::consts::PI * x / h;
+                sinc * (0.42 + 0.5 * a.cos() + 0.08 * (2.0 * a).cos())
+            })
+            .collect();
+        Ok(Self {
+            ratio,
+            half_width,
+            table,
+        })
+    }
+
+    /// The kernel at offset `tau` source samples (0 beyond the half-width).
+    fn weight(&self, tau: f64) -> f64 {
+        let p = tau.abs() * TABLE_STEPS as f64;
+        let i = p.floor() as usize;
+        match (self.table.get(i), self.table.get(i + 1)) {
+            (Some(&a), Some(&b)) => a + (b - a) * (p - i as f64),
+            (Some(&a), None) if p == i as f64 => a,
+            _ => 0.0,
+        }
+    }
+
+    /// Resample one channel: `y[m] = Σ_n h(m·r − n)·x[n] / Σ_n h(m·r − n)`, the record
+    /// extended by mirror reflection at both ends (as the decimator does).
+    pub fn apply(&self, x: &[f32]) -> Result<Vec<f32>, pumptwin_core::Error> {
+        if x.is_empty() {
+            return Err(pumptwin_core::Error::BufferSize {
+                expected: 1,
+                got: 0,
+            });
+        }
+        if x.iter().any(|v| !v.is_finite()) {
+            return Err(pumptwin_core::Error::NonFinite);
+        }
+        let n = x.len() as isize;
+        let reflect = |mut i: isize| -> f32 {
+            // Mirror without repeating the edge sample; fold until inside.
+            loop {
+                if n == 1 {
+                    return x[0];
+                }
+                if i < 0 {
+                    i = -i;
+                } else if i >= n {
+                    i = 2 * (n - 1) - i;
+                } else {
+                    return x[i as usize];
+                }
+            }
+        };
+        let hw = self.half_width as isize;
+        Ok((0..resampled_len(x.len(), self.ratio))
+            .map(|m| {
+                let t = m as f64 * self.ratio;
+                let centre = t.floor() as isize;
+                let (mut acc, mut sum) = (0.0f64, 0.0f64);
+                for j in centre - hw..=centre + hw + 1 {
+                    let w = self.weight(t - j as f64);
+                    acc += w * f64::from(reflect(j));
+                    sum += w;
+                }
+                (acc / sum) as f32
+            })
+            .collect())
+    }
 }
 
 /// The one low-pass for a source rate: cutoff, taps, decimation factor.
@@ -169,8 +318,11 @@ pub struct FilterPlan {
     pub factor: usize,
     /// Cutoff in Hz, `None` when nothing is filtered (native rate, no band limit).
     pub cutoff_hz: Option<f32>,
-    /// Filter taps at the source rate (empty when `cutoff_hz` is `None`).
+    /// Filter taps at the source rate (empty when `cutoff_hz` is `None`, or when
+    /// `resampler` does the work).
     pub taps: Vec<f32>,
+    /// For a non-integer ratio (then `factor` is 1 and `taps` empty).
+    pub resampler: Option<Resampler>,
 }
 
 impl FilterPlan {
@@ -181,8 +333,25 @@ impl FilterPlan {
                 reason: format!("filter length {} must be odd and at least 3", cfg.taps),
             });
         }
-        let factor = decimation_factor(fs_hz, cfg.target_fs_hz)?;
         let anti_alias = MAX_CUTOFF_FRACTION * cfg.target_fs_hz;
+        let factor = match decimation_factor(fs_hz, cfg.target_fs_hz) {
+            Ok(m) => m,
+            Err(PreprocessError::NonIntegerRatio { ratio, .. }) => {
+                let cutoff_hz = cfg.band_limit_hz.unwrap_or(anti_alias).min(anti_alias);
+                if !(cutoff_hz.is_finite() && cutoff_hz > 0.0) {
+                    return Err(PreprocessError::BadConfig {
+                        reason: format!("band limit {cutoff_hz} Hz must be positive and finite"),
+                    });
+                }
+                return Ok(Self {
+                    factor: 1,
+                    cutoff_hz: Some(cutoff_hz),
+                    taps: Vec::new(),
+                    resampler: Some(Resampler::new(ratio, cutoff_hz, fs_hz, cfg.taps)?),
+                });
+            }
+            Err(e) => return Err(e),
+        };
         let cutoff_hz = match (cfg.band_limit_hz, factor) {
             (None, 1) => None,
             (None, _) => Some(anti_alias),
@@ -215,6 +384,7 @@ impl FilterPlan {
             factor,
             cutoff_hz,
             taps,
+            resampler: None,
         })
     }
 
@@ -223,6 +393,12 @@ impl FilterPlan {
         if samples.is_empty() {
             return Err(PreprocessError::EmptyChannel {
                 channel: channel.to_string(),
+            });
+        }
+        if let Some(r) = &self.resampler {
+            return r.apply(samples).map_err(|source| PreprocessError::Filter {
+                channel: channel.to_string(),
+                source,
             });
         }
         if self.taps.is_empty() {
@@ -370,9 +546,9 @@ mod tests {
     #[test]
     fn refuses_unsupported_rates_and_configs() {
         let cfg = PreprocessConfig::default();
-        let err = preprocess(&tone_recording(44_100.0, 100, &[]), &cfg).expect_err("44.1 kHz");
-        assert!(matches!(err, PreprocessError::NonIntegerRatio { .. }));
-        assert!(err.to_string().contains("non-integer"), "{err}");
+        let err = preprocess(&tone_recording(1e12, 100, &[]), &cfg).expect_err("1 THz");
+        assert!(matches!(err, PreprocessError::TooFast { .. }), "{err}");
+        assert!(err.to_string().contains("check the sampling rate"), "{err}");
         let err = preprocess(&tone_recording(8_000.0, 100, &[]), &cfg).expect_err("8 kHz");
         assert!(matches!(err, PreprocessError::Upsampling { .. }), "{err}");
         let even = PreprocessConfig { taps: 100, ..cfg };
@@ -386,6 +562,56 @@ mod tests {
             preprocess(&empty, &cfg),
             Err(PreprocessError::EmptyChannel { channel }) if channel == "FE"
         ));
+    }
+
+    #[test]
+    fn resampler_reproduces_the_decimator_at_an_integer_ratio() {
+        let cfg = PreprocessConfig::default();
+        let rec = tone_recording(
+            48_000.0,
+            4_801,
+            &[(700.0, 1.0), (3_100.0, 0.5), (9_000.0, 0.3)],
+        );
+        let x = &rec.channels[0].samples;
+        let want = FilterPlan::new(48_000.0, &cfg)
+            .expect("plan")
+            .apply("DE", x)
+            .expect("dec");
+        let r = Resampler::new(4.0, BAND_LIMIT_HZ, 48_000.0, cfg.taps).expect("resampler");
+        let got = r.apply(x).expect("resample");
+        assert_eq!(got.len(), want.len());
+        let worst = got
+            .iter()
+            .zip(&want)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0f32, f32::max);
+        assert!(worst < 1e-5, "largest difference {worst}");
+    }
+
+    #[test]
+    fn resamples_the_rates_of_other_rigs() {
+        // Pass band kept, the band above the model Nyquist rate not folded back in:
+        // a tone at 9 kHz would alias to 3 kHz at 12 kHz.
+        let cfg = PreprocessConfig::default();
+        for fs in [25_600.0f32, 44_100.0, 64_000.0, 97_656.0] {
+            let n = (fs * 0.5) as usize;
+            let rec = tone_recording(fs, n, &[(1_000.0, 1.0), (4_000.0, 0.5), (9_000.0, 1.0)]);
+            let out = preprocess(&rec, &cfg).expect("resampled");
+            let y = &out.channels[0].samples;
+            assert_eq!(out.fs_hz, 12_000.0);
+            assert_eq!(y.len(), model_rate_len(n, fs, &cfg).expect("len"));
+            assert!(
+                (y.len() as f32 - n as f32 * 12_000.0 / fs).abs() <= 1.0,
+                "{fs}: {}",
+                y.len()
+            );
+            let a1 = amplitude(y, 12_000.0, 1_000.0);
+            let a4 = amplitude(y, 12_000.0, 4_000.0);
+            let alias = amplitude(y, 12_000.0, 3_000.0);
+            assert!((a1 - 1.0).abs() < 0.01, "{fs} Hz: 1 kHz gain {a1}");
+            assert!((a4 - 0.5).abs() < 0.02, "{fs} Hz: 4 kHz gain {}", a4 / 0.5);
+            assert!(alias < 1e-3, "{fs} Hz: 9 kHz folded to 3 kHz at {alias}");
+        }
     }
 
     #[test]
