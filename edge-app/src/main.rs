@@ -57,6 +57,7 @@
 
 use anyhow::Context;
 use clap::{Parser, ValueEnum};
+use pumptwin_core::fir::{BAND_LIMIT_HZ, MAX_CUTOFF_FRACTION};
 use pumptwin_edge::candump::{CandumpReplay, FrameSource};
 use pumptwin_edge::gateway::Gateway;
 use pumptwin_edge::live::{BusPublisher, SocketCanSource};
@@ -243,6 +244,19 @@ fn main() -> anyhow::Result<()> {
     let mut gateway = Gateway::new(pipeline, Pacer::new(speed)).with_stop(Arc::clone(&stop));
     let mut encoder = DiagnosisFrameEncoder::new(Vec::new(), Vec::new());
     if let Some(path) = &cli.model {
+        // The model reads features up to the common band limit (its training data were
+        // low-passed there): a rate whose anti-alias cutoff (0.45·fs) falls below it
+        // would feed it other features than it learned, so it is refused, not run.
+        let reach = gateway.pipeline().feature_config().envelope_band.hi_hz;
+        anyhow::ensure!(
+            reach >= BAND_LIMIT_HZ,
+            "model {}: it reads features up to the common {BAND_LIMIT_HZ} Hz band limit, but \
+             the sensor map's fs_hz = {} Hz reaches {reach} Hz (0.45·fs); the sensors must \
+             sample at {:.0} Hz or more",
+            path.display(),
+            gateway.pipeline().feature_config().fs_hz,
+            (BAND_LIMIT_HZ / MAX_CUTOFF_FRACTION).ceil()
+        );
         let diagnoser = ModelDiagnoser::load(path, gateway.pipeline().channel_names())?;
         let unmapped: Vec<&str> = diagnoser.unmapped().collect();
         if !unmapped.is_empty() {

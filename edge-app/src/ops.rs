@@ -121,6 +121,7 @@ pub fn render(m: &Metrics) -> String {
     s.push_str("# HELP pumptwin_frames_total CAN frames by bucket (they add up to pumptwin_frames_seen_total).\n# TYPE pumptwin_frames_total counter\n");
     for (bucket, v) in [
         ("used", h.used),
+        ("duplicate", h.duplicate),
         ("out_of_sequence", h.out_of_sequence),
         ("unknown_id", h.unknown_id),
         ("malformed", h.malformed),

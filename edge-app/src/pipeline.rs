@@ -12,13 +12,20 @@
 //! | `unknown_id` | an identifier the sensor map does not name | none |
 //! | `malformed` | a payload that does not fit its channel's layout | dropped |
 //! | `late` | timestamp earlier than the previous frame's (any id) | dropped |
+//! | `duplicate` | the channel's last stored frame again: same counter, same payload | dropped |
 //! | `out_of_sequence` | sequence counter ≠ expected | **used** |
 //! | `used` | everything else | used |
 //!
-//! so `frames_total = used + out_of_sequence + unknown_id + malformed + late + remote
-//! + error_frames` ([`Health::frames_classified`]). Not frames, and so outside the sum:
+//! so `frames_total = used + duplicate + out_of_sequence + unknown_id + malformed + late
+//! + remote + error_frames` ([`Health::frames_classified`]). Not frames, and so outside the sum:
 //! `lost_frames` (frames a counter jump says never arrived), `bad_lines` (log lines
 //! that are not frames), `realignments`, `windows`, `degraded_windows`.
+//!
+//! Why a duplicate is dropped: it holds the same sample instants as the frame before
+//! it (a bus retransmission, a logger or bridge that forwards a frame twice), so
+//! storing it would insert a repeat and shift every later sample by a frame; dropped,
+//! the stream stays in sequence and no window is degraded by it. A repeated counter
+//! with a different payload is not a copy: it is `out_of_sequence`, as below.
 //!
 //! Why out-of-sequence frames are used: their payload is intact and current; what is
 //! wrong is what came before them. The counter re-synchronizes to the frame; a forward
@@ -113,6 +120,9 @@ pub struct Health {
     pub frames_total: u64,
     /// Frames whose samples were used, in sequence.
     pub used: u64,
+    /// Frames that repeat their channel's last stored frame, counter and payload
+    /// (dropped).
+    pub duplicate: u64,
     /// Frames with an unexpected sequence counter (samples used).
     pub out_of_sequence: u64,
     /// Frames with an identifier the sensor map does not name.
@@ -141,6 +151,7 @@ impl Health {
     /// Sum of the frame buckets; equals `frames_total`.
     pub fn frames_classified(&self) -> u64 {
         self.used
+            + self.duplicate
             + self.out_of_sequence
             + self.unknown_id
             + self.malformed
@@ -154,11 +165,12 @@ impl std::fmt::Display for Health {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "{} frames: {} used, {} out of sequence ({} lost), {} unknown id, {} malformed, \
+            "{} frames: {} used, {} duplicate, {} out of sequence ({} lost), {} unknown id, {} malformed, \
              {} late, {} remote, {} error frames; {} bad lines; {} windows ({} degraded); \
              {} channel re-alignments",
             self.frames_total,
             self.used,
+            self.duplicate,
             self.out_of_sequence,
             self.lost_frames,
             self.unknown_id,
@@ -180,6 +192,11 @@ pub enum Disposition {
     /// Samples used.
     Used {
         /// Channel index in the sensor map.
+        channel: usize,
+    },
+    /// The channel's last stored frame again (same counter and payload); dropped.
+    Duplicate {
+        /// Channel index.
         channel: usize,
     },
     /// Samples used after a sequence-counter jump.
@@ -390,6 +407,8 @@ struct ChannelState {
     fir: Box<FirLowpass<BAND_LIMIT_TAPS>>,
     ring: Box<SampleRing<RING>>,
     expected_seq: Option<u8>,
+    /// Payload of the last frame whose samples were stored (duplicate check).
+    last_payload: Vec<u8>,
     pending_gap: bool,
 }
 
@@ -426,10 +445,13 @@ impl Pipeline {
     /// A pipeline for a validated sensor map.
     ///
     /// # Errors
-    /// The band-limit filter cannot be designed for the map's rate (not for a
-    /// validated map: its rate is above the envelope band).
+    /// The map's speed puts the defect lines where the envelope cannot read them
+    /// ([`FeatureConfig::check_speed`]: `rpm = 1` or `1e9` is a wrong map, not a
+    /// machine); the band-limit filter cannot be designed for the map's rate (not for
+    /// a validated map: its rate is above the envelope band).
     pub fn new(map: SensorMap) -> Result<Self, pumptwin_core::Error> {
         let cfg = feature_config(&map.machine);
+        cfg.check_speed(WINDOW)?;
         let fs = map.machine.fs_hz;
         let cutoff = cfg.band_limit_hz.min(MAX_CUTOFF_FRACTION * fs);
         let channels = map
@@ -441,6 +463,7 @@ impl Pipeline {
                     fir: Box::new(FirLowpass::new(cutoff, fs)?),
                     ring: Box::new(SampleRing::new()),
                     expected_seq: None,
+                    last_payload: Vec::new(),
                     pending_gap: false,
                 })
             })
@@ -508,10 +531,14 @@ impl Pipeline {
             return Disposition::SlowMalformed;
         }
         if let Some(rpm) = self.slow.value("rpm") {
+            // A speed the envelope cannot read the lines at (a stopping pump, a bad
+            // value) is not taken: the window keeps the last good one, and the
+            // reported `rpm` slow value shows what the bus said.
             let hz = (rpm / 60.0) as f32;
-            if hz.is_finite() && hz > 0.0 && hz != self.cfg.shaft_hz {
-                self.cfg =
-                    FeatureConfig::standard(self.machine.fs_hz, hz, self.machine.bearing.orders());
+            let cfg =
+                FeatureConfig::standard(self.machine.fs_hz, hz, self.machine.bearing.orders());
+            if hz != self.cfg.shaft_hz && cfg.check_speed(WINDOW).is_ok() {
+                self.cfg = cfg;
             }
         }
         Disposition::Slow
@@ -564,6 +591,10 @@ impl Pipeline {
             Disposition::Used { channel } => {
                 h.used += 1;
                 Some(channel)
+            }
+            Disposition::Duplicate { .. } => {
+                h.duplicate += 1;
+                None
             }
             Disposition::OutOfSequence { channel, lost } => {
                 h.out_of_sequence += 1;
@@ -637,8 +668,14 @@ impl Pipeline {
             return Disposition::Late { channel };
         }
         let Some(s) = seq else {
+            // Without a counter a copy cannot be told from a frame of equal samples.
             return Disposition::Used { channel };
         };
+        if ch.expected_seq == Some(s.wrapping_add(1)) && ch.last_payload == frame.data[..] {
+            return Disposition::Duplicate { channel };
+        }
+        ch.last_payload.clear();
+        ch.last_payload.extend_from_slice(&frame.data);
         let jump = ch.expected_seq.map_or(0, |e| s.wrapping_sub(e));
         ch.expected_seq = Some(s.wrapping_add(1));
         if jump == 0 {

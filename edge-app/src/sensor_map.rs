@@ -216,6 +216,15 @@ pub enum SensorMapError {
     /// `machine.rpm` not finite and positive.
     #[error("machine.rpm = {0}: must be finite and > 0")]
     Rpm(f64),
+    /// `machine.rpm` puts the bearing's defect lines where the envelope cannot read
+    /// them (`FeatureConfig::check_speed`).
+    #[error("machine.rpm = {rpm}: {reason}")]
+    Speed {
+        /// The speed given.
+        rpm: f64,
+        /// The core's reason.
+        reason: String,
+    },
     /// `machine.fs_hz` not finite or too low for the envelope band.
     #[error("machine.fs_hz = {0}: must be finite and > {MIN_FS_HZ:.1} Hz (the envelope band starts at 500 Hz)")]
     SampleRate(f64),
@@ -480,12 +489,19 @@ fn validate_machine(raw: RawMachine) -> Result<Machine, SensorMapError> {
         }
         other => return Err(SensorMapError::BearingType(other.type_str().to_owned())),
     };
-    Ok(Machine {
+    let machine = Machine {
         rpm: rpm as f32,
         bearing,
         bearing_name,
         fs_hz: fs as f32,
-    })
+    };
+    crate::pipeline::feature_config(&machine)
+        .check_speed(crate::pipeline::WINDOW)
+        .map_err(|e| SensorMapError::Speed {
+            rpm,
+            reason: e.to_string(),
+        })?;
+    Ok(machine)
 }
 
 fn validate_channel(index: usize, raw: RawChannel) -> Result<Channel, SensorMapError> {

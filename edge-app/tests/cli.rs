@@ -207,3 +207,35 @@ fn config_file_and_metrics_endpoint() {
     assert!(!r.status.success());
     assert!(String::from_utf8_lossy(&r.stderr).contains("sensorz"));
 }
+
+/// A model trained on the 5 kHz band limit is not run on sensors that cannot reach
+/// it (10 kHz: anti-alias cutoff 4.5 kHz): a clear error, before any frame.
+#[test]
+fn a_model_is_refused_below_its_band_limit() {
+    let dir = temp_dir("slow-rate");
+    let map_path = dir.join("map.toml");
+    std::fs::write(
+        &map_path,
+        MAP_DE_FE.replace("fs_hz = 12000.0", "fs_hz = 10000.0"),
+    )
+    .unwrap();
+    let log = dir.join("empty.log");
+    std::fs::write(&log, "").unwrap();
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
+    let out = bin()
+        .args(["--replay"])
+        .arg(&log)
+        .arg("--sensors")
+        .arg(&map_path)
+        .arg("--model")
+        .arg(root.join("models/dsstgat-cwru-tb.ptm"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("band limit") && stderr.contains("11112 Hz"),
+        "{stderr}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -16,6 +16,7 @@ use pumptwin_edge::candump::{CandumpReplay, Frame, SourceError};
 use pumptwin_edge::gateway::Gateway;
 use pumptwin_edge::pace::{Pacer, Speed};
 use pumptwin_edge::pipeline::{Health, Pipeline, WINDOW};
+use pumptwin_edge::sensor_map::SensorMap;
 use serde_json::Value;
 
 const DE: u32 = 0x101;
@@ -113,12 +114,13 @@ fn random_frame_loss_is_counted_where_a_counter_can_see_it() {
     assert!(lines.iter().all(|w| w["channels"]["DE"]["rms"].is_number()));
 }
 
-/// Every 50th DE frame delivered twice. The copy repeats the counter the gateway just
-/// saw: a backward step, so it is `out_of_sequence` with nothing added to
-/// `lost_frames`; its samples are stored a second time (the window is flagged
-/// `discontinuous`), and the next original frame is in sequence again.
+/// Every 50th DE frame delivered twice (a retransmission, a bridge that forwards a
+/// frame twice). The copy repeats the counter and the payload of the frame the
+/// gateway just stored: it is a `duplicate`, dropped, so the stream stays in
+/// sequence — the same windows, with the same values, as without the copies, none
+/// degraded.
 #[test]
-fn duplicated_frames_are_out_of_sequence_and_lose_nothing() {
+fn duplicated_frames_are_dropped_and_change_nothing() {
     let frames = clean(24_000);
     let mut with_dups = Vec::new();
     let mut dups = 0u64;
@@ -136,16 +138,17 @@ fn duplicated_frames_are_out_of_sequence_and_lose_nothing() {
     }
     let total = with_dups.len() as u64;
     let (lines, h) = run_frames(MAP_DE_FE, with_dups);
+    let (clean_lines, clean_h) = run_frames(MAP_DE_FE, clean(24_000));
     assert_adds_up(&h);
     assert_eq!(h.frames_total, total);
-    assert_eq!(h.out_of_sequence, dups);
-    assert_eq!(h.lost_frames, 0);
-    assert_eq!(h.late, 0);
-    assert!(h.degraded_windows > 0);
-    assert!(lines
-        .iter()
-        .filter(|w| w["status"] == "degraded")
-        .all(|w| w["discontinuous"].to_string().contains("DE")));
+    assert_eq!(h.duplicate, dups);
+    assert_eq!((h.out_of_sequence, h.lost_frames, h.late), (0, 0, 0));
+    assert_eq!(h.degraded_windows, 0);
+    assert_eq!(h.used, clean_h.used);
+    assert_eq!(lines.len(), clean_lines.len());
+    for (a, b) in lines.iter().zip(&clean_lines) {
+        assert_eq!(a["channels"], b["channels"]);
+    }
 }
 
 /// Two DE frames swapped on the bus. (a) Reception times stay in order (the frames
@@ -293,20 +296,16 @@ fn a_truncated_log_ends_cleanly_at_every_cut() {
     }
 }
 
-/// A shaft speed that is finite but absurd (`rpm = 1e30` in the map, as a DBC speed
-/// signal gone wild would give): every feature that depends on the shaft rate gets
-/// nothing to read, and nothing panics (it did: RELIABILITY.md, "bugs found").
+/// A shaft speed that is finite but absurd (`rpm = 1e30`, or 1 rev/min, in the map):
+/// the defect lines fall where the envelope cannot read them, so the map is refused
+/// at start with an error that says so — no panic (the features once did:
+/// RELIABILITY.md, "bugs found"), and no diagnosis of lines that are not there.
 #[test]
-fn an_absurd_shaft_speed_is_no_panic() {
-    let text = MAP_DE_FE.replace("rpm = 1797.0", "rpm = 1e30");
-    let frames = clean(12_000);
-    let total = frames.len() as u64;
-    let (lines, h) = run_frames(&text, frames);
-    assert_adds_up(&h);
-    assert_eq!(h.frames_total, total);
-    assert!(!lines.is_empty());
-    for w in &lines {
-        assert!(w["channels"]["DE"].is_object(), "{w}");
+fn an_absurd_shaft_speed_is_refused() {
+    for (rpm, why) in [("1e30", "too high"), ("1.0", "too low")] {
+        let text = MAP_DE_FE.replace("rpm = 1797.0", &format!("rpm = {rpm}"));
+        let err = SensorMap::from_toml_str(&text).expect_err(rpm);
+        assert!(err.to_string().contains(why), "{rpm}: {err}");
     }
 }
 
@@ -317,8 +316,8 @@ fn temp_dir(name: &str) -> PathBuf {
 }
 
 /// The health line `pumptwin-edge` prints on stderr at the end, as numbers in order:
-/// total, used, out of sequence, lost, unknown, malformed, late, remote, error, bad
-/// lines, windows, degraded, re-alignments.
+/// total, used, duplicate, out of sequence, lost, unknown, malformed, late, remote,
+/// error, bad lines, windows, degraded, re-alignments.
 fn final_counts(stderr: &str) -> Vec<u64> {
     let line = stderr
         .lines()
@@ -386,9 +385,9 @@ fn a_model_file_swapped_while_running_changes_nothing() {
     let c = final_counts(&stderr);
     assert_eq!(
         c[0],
-        c[1] + c[2] + c[4] + c[5] + c[6] + c[7] + c[8],
+        c[1] + c[2] + c[3] + c[5] + c[6] + c[7] + c[8] + c[9],
         "{stderr}"
     );
-    assert_eq!(c[10], lines.len() as u64);
+    assert_eq!(c[11], lines.len() as u64);
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -263,13 +263,19 @@ fn each_frame_reports_its_bucket() {
                 lost: 2,
             },
         ),
+        (padded(11, 40), Disposition::Duplicate { channel: 0 }),
+        // The same counter with other samples is no copy: a backward step.
         (
-            padded(11, 40),
+            {
+                let mut d = m.channels[0].encode(&[0.5, 0.6, 0.7, 0.8], 11);
+                d.resize(12, 0).unwrap();
+                raw_frame(45, 0x101, &d)
+            },
             Disposition::OutOfSequence {
                 channel: 0,
                 lost: 0,
             },
-        ), // duplicate
+        ),
         (padded(12, 35), Disposition::Late { channel: 0 }),
         (padded(13, 50), Disposition::Used { channel: 0 }),
         (
@@ -288,8 +294,14 @@ fn each_frame_reports_its_bucket() {
     );
     let h = p.health();
     assert_eq!(
-        (h.used, h.out_of_sequence, h.late, h.lost_frames),
-        (4, 2, 1, 2)
+        (
+            h.used,
+            h.duplicate,
+            h.out_of_sequence,
+            h.late,
+            h.lost_frames
+        ),
+        (4, 1, 2, 1, 2)
     );
     assert_adds_up(&h);
 }
