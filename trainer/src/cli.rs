@@ -664,10 +664,11 @@ fn run_twin_loop(args: &TwinLoopArgs) -> Result<()> {
     }
     for r in &report.rejected {
         outln!(
-            "- {:<22} rejected: cost {:.3} -> {:.3} ({})",
+            "- {:<22} rejected: cost {:.3} -> {:.3}, {} ({})",
             r.effect,
             r.cost_before,
             r.cost_after,
+            r.reason,
             r.evidence.summary
         );
     }
@@ -796,8 +797,8 @@ pub fn run_twin_cwru(args: &TwinCwruArgs) -> Result<()> {
         }
         for r in &report.rejected {
             details.push_str(&format!(
-                "- tried `{}`, rejected (cost {:.3} → {:.3}): {}\n",
-                r.effect, r.cost_before, r.cost_after, r.evidence.summary
+                "- tried `{}`, rejected (cost {:.3} → {:.3}; {}): {}\n",
+                r.effect, r.cost_before, r.cost_after, r.reason, r.evidence.summary
             ));
         }
         let left: Vec<String> = report
@@ -852,7 +853,11 @@ const KNOWN_CWRU: &str = "
   are classed by Smith & Randall as not clearly diagnosable. Where the loop's fault
   hypothesis is not `ball`, that agrees with this known weakness rather than
   contradicting the label.
-- **Outer-race faults @6:00** (130, 197, 234, and 236/237 at 2–3 HP): clear BPFO trains.
+- **Outer-race faults @6:00** (130, 234, and 236/237 at 2–3 HP): clear BPFO trains.
+  197 (OR014) has none in any band of the drive-end envelope, nor a spectral mark that
+  tells it from a ball fault (`scripts/band-envelope-evidence.py`,
+  `docs/evaluation-cwru.md`): the loop's `inner_race` on it is the strongest of three
+  weak lines, not a contradiction of the label it could resolve.
   Records 236 and 237 are known to clip; the last column counts DE samples within
   0.01 % of the record's peak value: a clean peak is reached once, a signal driven into
   the ADC rail (±6.653 g here) returns the rail value repeatedly. Clipping is not one of

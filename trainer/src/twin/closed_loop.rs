@@ -93,6 +93,8 @@ pub struct RejectedCandidate {
     pub cost_before: f32,
     /// Cost with the effect.
     pub cost_after: f32,
+    /// Why it was not kept.
+    pub reason: String,
 }
 
 /// The loop's report (the JSON downstream tools read).
@@ -475,7 +477,17 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
                 _ => gap_after <= 0.5 * gap_before,
             };
             let local_ok = explained && trial.cost < current.cost * 0.99;
-            if local_ok || trial.cost < current.cost * (1.0 - cfg.min_relative_gain) {
+            // And it must not buy that with the figures the report shows: the PSD and
+            // envelope errors may trade against each other (a second mode fixes the PSD
+            // and moves the envelope), but their relative changes must not add up to a
+            // loss. The cost also weighs RMS and kurtosis, which an effect can match
+            // while it bends the spectra away from the measurement.
+            let (b, a) = (&current.figures, &trial.figures);
+            let rel = |after: f32, before: f32| (after - before) / before.max(1e-6);
+            let shown_ok = rel(a.psd_log_rmse_db, b.psd_log_rmse_db)
+                + rel(a.envelope_rmse, b.envelope_rmse)
+                <= 0.0;
+            if shown_ok && (local_ok || trial.cost < current.cost * (1.0 - cfg.min_relative_gain)) {
                 steps.push(LoopStep {
                     effect: cand.effect.name().to_string(),
                     detail: cand.effect,
@@ -490,15 +502,27 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
                 accepted = true;
                 break;
             }
+            let reason = if shown_ok {
+                format!(
+                    "the error falls too little (its own evidence {}explained)",
+                    if explained { "" } else { "not " }
+                )
+            } else {
+                format!(
+                    "PSD {:.2} -> {:.2} dB, envelope {:.3} -> {:.3}: the shown errors rise on balance",
+                    b.psd_log_rmse_db, a.psd_log_rmse_db, b.envelope_rmse, a.envelope_rmse
+                )
+            };
             rejected.push(RejectedCandidate {
                 effect: cand.effect.name().to_string(),
                 evidence: cand.evidence,
                 cost_before: current.cost,
                 cost_after: trial.cost,
+                reason,
             });
         }
         if !accepted {
-            stop_reason = "no candidate effect lowers the error".into();
+            stop_reason = "no candidate effect passed: each lowered the error too little, or raised the PSD and envelope errors on balance (see `rejected`)".into();
             break;
         }
     }

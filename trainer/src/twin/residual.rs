@@ -179,9 +179,19 @@ fn runs_above(
     out
 }
 
+/// Widest peak, in bins within 10 dB of its top, that is still a line.
+pub const LINE_MAX_BINS: usize = 4;
+
 /// Significant runs of `d[k]` over `bins` (bin width `df`): above
 /// `median + max(6 dB, 5σ)`, σ from the MAD. Returns the components and the threshold
 /// over the median.
+///
+/// A run is a `line` when its peak is narrow — at most [`LINE_MAX_BINS`] bins within
+/// 10 dB of the peak — whatever the run's width: a strong tone's Hann leakage keeps
+/// many bins above the threshold (its side lobes fall slowly), yet it is one line, not
+/// a band. Otherwise it is a `band`. A run whose peak is the first or last bin of the
+/// compared band is energy from outside it (`below_band` / `above_band`): reported,
+/// never traced as a line or band inside it.
 pub fn significant_components(
     d: &[f32],
     bins: std::ops::RangeInclusive<usize>,
@@ -197,11 +207,38 @@ pub fn significant_components(
     let out = runs_above(d, &bins, thr, true)
         .into_iter()
         .map(|(start, end, peak)| {
-            let width_bins = end - start + 1;
-            let f = peak as f64 * df;
+            let top = d[peak] - 10.0;
+            let left = (start..peak).rev().take_while(|&k| d[k] > top).count();
+            let right = (peak + 1..=end).take_while(|&k| d[k] > top).count();
+            let core_bins = left + 1 + right;
+            // The peak's frequency between bins: a parabola through the dB values of
+            // the peak bin and its neighbours (Hann: error under a tenth of a bin), so
+            // that a line 4 Hz off a shaft order is not taken for it, and a fitted tone
+            // lands on its frequency, not on the bin grid.
+            let delta = match (peak.checked_sub(1).and_then(|k| d.get(k)), d.get(peak + 1)) {
+                (Some(&a), Some(&c)) if core_bins <= LINE_MAX_BINS => {
+                    let den = a - 2.0 * d[peak] + c;
+                    if den < 0.0 {
+                        f64::from((0.5 * (a - c) / den).clamp(-0.5, 0.5))
+                    } else {
+                        0.0
+                    }
+                }
+                _ => 0.0,
+            };
+            let f = (peak as f64 + delta) * df;
+            let (kind, width_bins) = if peak == *bins.start() && peak > 0 {
+                ("below_band", end - start + 1)
+            } else if peak == *bins.end() {
+                ("above_band", end - start + 1)
+            } else if core_bins <= LINE_MAX_BINS {
+                ("line", core_bins)
+            } else {
+                ("band", end - start + 1)
+            };
             Component {
                 domain,
-                kind: if width_bins <= 4 { "line" } else { "band" },
+                kind,
                 f_hz: f,
                 width_hz: width_bins as f64 * df,
                 excess_db: d[peak] - med,
@@ -272,7 +309,9 @@ pub fn analyse(
     let d: Vec<f32> = m.iter().zip(&s).map(|(a, b)| a - b).collect();
     let df = f64::from(cfg.fs_hz) / cfg.psd_n as f64;
     let (raw, thr) = significant_components(&d, cfg.psd_bins(), df, shaft_hz, "psd");
-    let mut psd: Vec<Component> = raw.into_iter().filter(|c| c.kind == "line").collect();
+    // Lines, and what stands at the band's edges from outside it; bands come from the
+    // smoothed residual below.
+    let mut psd: Vec<Component> = raw.into_iter().filter(|c| c.kind != "band").collect();
     let half = ((100.0 / df).ceil() as usize).max(2);
     let bins = cfg.psd_bins();
     let smooth: Vec<f32> = (0..d.len())
@@ -292,7 +331,7 @@ pub fn analyse(
     let de: Vec<f32> = me.iter().zip(&se).map(|(a, b)| a - b).collect();
     let dfe = f64::from(cfg.fs_hz) / cfg.env_n as f64;
     let (envelope, _) = significant_components(&de, cfg.env_bins(), dfe, shaft_hz, "envelope");
-    let envelope = envelope.into_iter().filter(|c| c.kind == "line").collect();
+    let envelope = envelope.into_iter().filter(|c| c.kind != "band").collect();
     let psd_residual = cfg.psd_bins().map(|k| (cfg.psd_freq(k), d[k])).collect();
     ResidualAnalysis {
         psd,
@@ -547,7 +586,9 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
         .iter()
         .filter(|c| c.kind == "line" && !on_comb(c))
         .collect();
-    let tol = |f: f64| (1.5 * df).max(0.004 * f);
+    // Line frequencies are interpolated between bins (significant_components): three
+    // quarters of a bin, or 0.4 % for the speed's own uncertainty at high orders.
+    let tol = |f: f64| (0.75 * df).max(0.004 * f);
     let is_order = |c: &Component| {
         let k = c.order.round();
         (1.0..=40.0).contains(&k) && (c.f_hz - k * shaft).abs() < tol(c.f_hz)
@@ -614,10 +655,24 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
             .max_by(|&a, &b| lines[a].excess_db.total_cmp(&lines[b].excess_db))
         {
             let c = lines[i].clone();
+            // Shaft orders above 12 are not the shaft-harmonics effect (unbalance,
+            // misalignment): a line there is a mesh or pass frequency (teeth, vanes or
+            // blades times the shaft rate), which the loop says rather than "no order".
+            let what = if is_order(&c) {
+                format!("shaft order {} (above the 1-12x of unbalance and misalignment: a mesh or vane/blade-pass frequency, teeth or vanes x shaft rate), no electrical line or defect rate", c.order.round())
+            } else {
+                "matching no shaft order, electrical line or defect rate".to_string()
+            };
             out.push(Candidate {
-                effect: Effect::UnexplainedPeriodic { f_hz: c.f_hz, order: c.order },
+                effect: Effect::UnexplainedPeriodic {
+                    f_hz: c.f_hz,
+                    order: c.order,
+                },
                 evidence: evidence(
-                    format!("line at {:.1} Hz = {:.3} x shaft, {:.1} dB above the floor, matching no shaft order, electrical line or defect rate", c.f_hz, c.order, c.excess_db),
+                    format!(
+                        "line at {:.1} Hz = {:.3} x shaft, {:.1} dB above the floor, {what}",
+                        c.f_hz, c.order, c.excess_db
+                    ),
                     vec![c.clone()],
                 ),
                 strength: c.excess_db - 3.0,
@@ -697,6 +752,7 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
         let side: Vec<Component> = analysis
             .envelope
             .iter()
+            .filter(|c| c.kind == "line")
             .filter(|c| {
                 (1..=5).any(|k| {
                     (1..=2).any(|m| {
