@@ -48,5 +48,9 @@ fuzz_target!(|data: &[u8]| {
     }
     let h = pipeline.health();
     assert_eq!(h.frames_classified(), h.frames_total, "{h}");
-    assert_eq!(h.used + h.duplicate + h.out_of_sequence, channels.len() as u64, "{h}");
+    assert_eq!(
+        h.used + h.duplicate + h.out_of_sequence,
+        channels.len() as u64,
+        "{h}"
+    );
 });
