@@ -388,6 +388,18 @@ pub fn run_features(args: &FeaturesArgs) -> Result<()> {
             names.len()
         )
     })?;
+    if nodes.iter().all(|n| rec.channel(n).is_none()) {
+        bail!(
+            "{}: none of its channels {:?} is one of the node channels {:?}; name the CSV \
+             columns after them, or pass --channels",
+            args.record.input.display(),
+            rec.channels
+                .iter()
+                .map(|c| c.name.as_str())
+                .collect::<Vec<_>>(),
+            nodes
+        );
+    }
     let shaft = rpm / 60.0;
     let cfg = feature_config(rec.fs_hz, shaft, bearing.orders());
     if rec.len() < WINDOW {

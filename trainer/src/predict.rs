@@ -99,6 +99,9 @@ pub struct Prediction {
     /// Windows with no usable sensor: class [`NO_SIGNAL`], no probabilities, left
     /// out of the majority.
     pub no_signal_windows: usize,
+    /// Samples at the model rate after the last whole window (less than a hop: not
+    /// diagnosed, said rather than dropped in silence).
+    pub samples_after_last_window: usize,
     /// Per window.
     pub windows: Vec<WindowPrediction>,
     /// The most frequent class over the diagnosed windows.
@@ -321,6 +324,7 @@ fn predict_with<const N: usize>(
         resampled: (fs_hz_input - rec.fs_hz).abs() > 1e-3,
         missing_nodes: missing,
         no_signal_windows: no_signal,
+        samples_after_last_window: starts.last().map_or(0, |s| rec.len() - (s + WINDOW)),
         windows,
         majority_class,
         class_counts,

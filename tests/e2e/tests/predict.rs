@@ -46,6 +46,8 @@ fn predict_fixture_with_int8_and_float_models_and_a_channel_subset() {
         let r = predict(&fixture, model, &dir.join("p.json"));
         assert_eq!(r["majority_class"], "IR007", "{model}");
         assert_eq!(r["windows"].as_array().unwrap().len(), 10);
+        // 12 000 samples: the last window starts at 9 216 and ends at 11 264.
+        assert_eq!(r["samples_after_last_window"], 736);
         assert_eq!(r["missing_nodes"].as_array().unwrap().len(), 0);
     }
     // DE only: FE and BA masked and reported.
