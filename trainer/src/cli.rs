@@ -569,6 +569,10 @@ pub struct TwinLoopArgs {
     /// Channel to model (default: DE if present, else the first).
     #[arg(long)]
     pub channel: Option<String>,
+    /// g per unit of the samples (the bearing model works in g): 1 for g, 0.001 for
+    /// mg, 0.10197 for m/s², the sensor's g per count for raw ADC counts.
+    #[arg(long, default_value_t = 1.0)]
+    pub unit_scale: f32,
     /// Output directory (report.json and PNGs).
     #[arg(long)]
     pub out: PathBuf,
@@ -642,8 +646,17 @@ fn run_twin_loop(args: &TwinLoopArgs) -> Result<()> {
             .or(rec.channels.first())
             .context("record has no channels")?,
     };
+    ensure!(
+        args.unit_scale.is_finite() && args.unit_scale > 0.0,
+        "--unit-scale {}: must be finite and > 0 (g per unit of the samples)",
+        args.unit_scale
+    );
     let input = LoopInput {
-        signal: channel.samples.clone(),
+        signal: channel
+            .samples
+            .iter()
+            .map(|v| v * args.unit_scale)
+            .collect(),
         fs_hz: rec.fs_hz,
         rpm,
         bearing,

@@ -25,6 +25,12 @@ pub struct LoopInput {
     pub bearing: BearingGeometry,
 }
 
+/// Largest RMS, in g, taken as a bearing housing's acceleration. The model works in g
+/// and is not scale-free (its cubic stiffness hardens with amplitude), so a record in
+/// mg, m/s² or ADC counts would be fitted as a violent machine, or diverge; above this
+/// level the loop asks for the unit rather than fit.
+pub const MAX_RMS_G: f32 = 50.0;
+
 /// Loop settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LoopConfig {
@@ -363,6 +369,14 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
         freqs: input.bearing.frequencies(input.rpm / 60.0),
     };
     let target = Target::of(x, sig_fit).map_err(|e| LoopError::Fit(e.into()))?;
+    if target.meas.rms.is_nan() || target.meas.rms > MAX_RMS_G {
+        return Err(LoopError::Input(format!(
+            "the record's RMS is {:.4e}: the bearing model works in g and no bearing housing \
+             vibrates above {MAX_RMS_G} g RMS; a record in mg, m/s² or ADC counts must be \
+             scaled to g (`twin loop --unit-scale`: 0.001 for mg, 0.10197 for m/s², g per count)",
+            target.meas.rms
+        )));
+    }
     let target_res = Target::of(x, sig_res).map_err(|e| LoopError::Fit(e.into()))?;
     // The model is simulated over as long a span as the record it is compared with, so
     // anything that builds up over the record (a drifting speed) is seen alike.
@@ -660,5 +674,21 @@ mod tests {
             run(&input, &LoopConfig::default()),
             Err(LoopError::Input(_))
         ));
+        // A record in mg (1000 x the g values): the unit is asked for, not fitted.
+        let signal = crate::twin::generate::generate(
+            crate::twin::generate::Injected::None,
+            crate::twin::generate::Strength::Realistic,
+            2.0,
+            3,
+        )
+        .expect("generator")
+        .iter()
+        .map(|v| v * 1000.0)
+        .collect();
+        let input = LoopInput { signal, ..input };
+        match run(&input, &LoopConfig::default()) {
+            Err(LoopError::Input(why)) => assert!(why.contains("--unit-scale"), "{why}"),
+            other => panic!("a record in mg was fitted: {:?}", other.map(|r| r.0.fault)),
+        }
     }
 }
