@@ -13,7 +13,7 @@
 //! | `malformed` | a payload that does not fit its channel's layout | dropped |
 //! | `late` | timestamp earlier than the previous frame's (any id) | dropped |
 //! | `duplicate` | the channel's last stored frame again: same counter, same payload | dropped |
-//! | `out_of_sequence` | sequence counter ≠ expected | **used** |
+//! | `out_of_sequence` | sequence counter ≠ expected, or a gap by the clock | **used** |
 //! | `used` | everything else | used |
 //!
 //! so `frames_total = used + duplicate + out_of_sequence + unknown_id + malformed + late
@@ -26,6 +26,14 @@
 //! storing it would insert a repeat and shift every later sample by a frame; dropped,
 //! the stream stays in sequence and no window is degraded by it. A repeated counter
 //! with a different payload is not a copy: it is `out_of_sequence`, as below.
+//!
+//! A channel silent for more than [`TIME_GAP_FRAMES`] frame periods (by the frames'
+//! timestamps) has a gap too, counter or not: its next frame is `out_of_sequence`,
+//! the frames the clock says are missing are `lost_frames` (for a channel with a
+//! counter, the counter's jump plus the whole wraps of 256 the clock adds; up to
+//! [`CLOCK_COUNT_FRAMES`] periods, beyond which a pause cannot be told from a loss and
+//! only the counter's jump is counted), and the window holding the junction is
+//! `discontinuous`. Shorter silences are reception jitter, not gaps.
 //!
 //! Why out-of-sequence frames are used: their payload is intact and current; what is
 //! wrong is what came before them. The counter re-synchronizes to the frame; a forward
@@ -112,6 +120,15 @@ pub const ENV_KURTOSIS: usize = feature_index("env_kurtosis");
 pub fn feature_config(machine: &Machine) -> FeatureConfig {
     FeatureConfig::standard(machine.fs_hz, machine.shaft_hz(), machine.bearing.orders())
 }
+
+/// Frame periods of silence on a channel, beyond the one expected, that make a gap
+/// by the clock: half the 8-bit counter's range (module docs).
+pub const TIME_GAP_FRAMES: f64 = 128.0;
+
+/// Longest silence, in frame periods, whose missing frames the clock counts. A longer
+/// one is a junction all the same, but the clock cannot tell a logger that lost the
+/// frames from a sensor that paused and resumed, so only the counter's jump is counted.
+pub const CLOCK_COUNT_FRAMES: u64 = 4096;
 
 /// Counters of what happened to frames and windows (see the module docs).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
@@ -203,8 +220,8 @@ pub enum Disposition {
     OutOfSequence {
         /// Channel index.
         channel: usize,
-        /// Frames the jump says were lost (0 for a backward step).
-        lost: u8,
+        /// Frames the jump (or the time gap) says were lost (0 for a backward step).
+        lost: u64,
     },
     /// No channel has this identifier.
     UnknownId,
@@ -409,6 +426,8 @@ struct ChannelState {
     expected_seq: Option<u8>,
     /// Payload of the last frame whose samples were stored (duplicate check).
     last_payload: Vec<u8>,
+    /// Reception time of the channel's last frame that was not late, µs.
+    last_ts_us: Option<u64>,
     pending_gap: bool,
 }
 
@@ -464,6 +483,7 @@ impl Pipeline {
                     ring: Box::new(SampleRing::new()),
                     expected_seq: None,
                     last_payload: Vec::new(),
+                    last_ts_us: None,
                     pending_gap: false,
                 })
             })
@@ -598,7 +618,7 @@ impl Pipeline {
             }
             Disposition::OutOfSequence { channel, lost } => {
                 h.out_of_sequence += 1;
-                h.lost_frames += u64::from(lost);
+                h.lost_frames += lost;
                 Some(channel)
             }
             Disposition::UnknownId => {
@@ -667,9 +687,29 @@ impl Pipeline {
             }
             return Disposition::Late { channel };
         }
+        // Frames missing by the clock: more than half the counter's range of frame
+        // periods since this channel's last frame is a gap, whatever the counter says
+        // (a run of 256 lost frames brings it back to where it was; a channel without
+        // a counter has only the clock). Below that, reception jitter is not a gap.
+        let period_us = 1e6 * ch.spec.samples_per_frame as f64 / f64::from(self.machine.fs_hz);
+        let missing_by_clock = ch
+            .last_ts_us
+            .replace(frame.ts_us)
+            .map(|t| frame.ts_us.saturating_sub(t) as f64 / period_us - 1.0)
+            .filter(|&m| m > TIME_GAP_FRAMES)
+            .map(|m| m.round() as u64);
         let Some(s) = seq else {
             // Without a counter a copy cannot be told from a frame of equal samples.
-            return Disposition::Used { channel };
+            return match missing_by_clock {
+                Some(m) => {
+                    ch.pending_gap = true;
+                    Disposition::OutOfSequence {
+                        channel,
+                        lost: if m <= CLOCK_COUNT_FRAMES { m } else { 0 },
+                    }
+                }
+                None => Disposition::Used { channel },
+            };
         };
         if ch.expected_seq == Some(s.wrapping_add(1)) && ch.last_payload == frame.data[..] {
             return Disposition::Duplicate { channel };
@@ -678,13 +718,28 @@ impl Pipeline {
         ch.last_payload.extend_from_slice(&frame.data);
         let jump = ch.expected_seq.map_or(0, |e| s.wrapping_sub(e));
         ch.expected_seq = Some(s.wrapping_add(1));
-        if jump == 0 {
-            Disposition::Used { channel }
-        } else {
-            ch.pending_gap = true;
-            Disposition::OutOfSequence {
-                channel,
-                lost: if jump < 128 { jump } else { 0 },
+        match missing_by_clock {
+            // The counter counts losses modulo 256; the clock says how many wraps.
+            Some(by_clock) => {
+                ch.pending_gap = true;
+                let j = u64::from(jump);
+                let wraps = if by_clock <= CLOCK_COUNT_FRAMES {
+                    ((by_clock as f64 - j as f64) / 256.0).round().max(0.0) as u64
+                } else {
+                    0
+                };
+                Disposition::OutOfSequence {
+                    channel,
+                    lost: j + 256 * wraps,
+                }
+            }
+            None if jump == 0 => Disposition::Used { channel },
+            None => {
+                ch.pending_gap = true;
+                Disposition::OutOfSequence {
+                    channel,
+                    lost: if jump < 128 { u64::from(jump) } else { 0 },
+                }
             }
         }
     }

@@ -114,6 +114,59 @@ fn random_frame_loss_is_counted_where_a_counter_can_see_it() {
     assert!(lines.iter().all(|w| w["channels"]["DE"]["rms"].is_number()));
 }
 
+/// 256 consecutive DE frames lost: the 8-bit counter comes back to where it was and
+/// sees nothing, but the clock sees 256 frame periods of silence. The frame after
+/// the run is `out_of_sequence`, exactly 256 frames are `lost_frames`, and the
+/// junction's windows are `discontinuous`. FE, which kept sending, is untouched.
+#[test]
+fn a_run_of_256_lost_frames_is_counted_by_the_clock() {
+    let mut de_seen = 0;
+    let kept: Vec<Frame> = clean(48_000)
+        .into_iter()
+        .filter(|f| {
+            f.id != DE || {
+                de_seen += 1;
+                !(2_000..2_256).contains(&de_seen)
+            }
+        })
+        .collect();
+    let (lines, h) = run_frames(MAP_DE_FE, kept);
+    assert_adds_up(&h);
+    assert_eq!((h.lost_frames, h.out_of_sequence), (256, 1), "{h}");
+    assert!(lines
+        .iter()
+        .any(|w| w["discontinuous"].to_string().contains("DE")));
+    assert!(!lines
+        .iter()
+        .any(|w| w["discontinuous"].to_string().contains("FE")));
+}
+
+/// An hour of silence in the middle of the log (every frame after it stamped an
+/// hour later): FE has no counter and DE's counter runs on as if nothing happened,
+/// but by the clock both streams have a junction there, and the window across it is
+/// `discontinuous` for both, never `ok`. A silence that long cannot tell a pause from
+/// a loss: no frames are counted lost.
+#[test]
+fn an_hour_of_silence_is_a_junction_by_the_clock() {
+    let mut frames = clean(24_000);
+    let half = frames.len() / 2;
+    for f in &mut frames[half..] {
+        f.ts_us += 3_600_000_000;
+    }
+    let (lines, h) = run_frames(MAP_DE_FE, frames);
+    assert_adds_up(&h);
+    assert_eq!((h.out_of_sequence, h.lost_frames), (2, 0), "{h}");
+    let across: Vec<&Value> = lines
+        .iter()
+        .filter(|w| w["discontinuous"].to_string().contains("DE"))
+        .collect();
+    assert!(!across.is_empty());
+    for w in across {
+        assert_eq!(w["status"], "degraded", "{w}");
+        assert!(w["discontinuous"].to_string().contains("FE"), "{w}");
+    }
+}
+
 /// Every 50th DE frame delivered twice (a retransmission, a bridge that forwards a
 /// frame twice). The copy repeats the counter and the payload of the frame the
 /// gateway just stored: it is a `duplicate`, dropped, so the stream stays in
