@@ -194,6 +194,26 @@ pub const MAX_SENSOR_HEAD_WEIGHTS: usize = MAX_CLASSES * SENSOR_HEAD_INPUTS;
 /// Upper bound of `size_of::<ModelFile>()`, checked at compile time for every target.
 pub const DECODED_SIZE_BUDGET: usize = 16 * 1024;
 
+/// The physical indicators of the indicator head (paper eq. 13), full names in output
+/// order. The file stores each name's first [`NAME_LEN`] bytes (a fixed-size field);
+/// [`indicator_full_name`] gives the full name back.
+pub const INDICATOR_NAMES: [&str; 4] = [
+    "impact_intensity",
+    "dominant_band_energy_ratio",
+    "adjacent_node_energy_difference_db",
+    "graph_embedding_inconsistency",
+];
+
+/// The full name of an indicator whose stored (possibly cut) name is `stored`: the
+/// [`INDICATOR_NAMES`] entry it is the [`NAME_LEN`]-byte prefix of, else `stored`.
+pub fn indicator_full_name(stored: &str) -> &str {
+    INDICATOR_NAMES
+        .iter()
+        .find(|n| n.get(..NAME_LEN).unwrap_or(n) == stored)
+        .copied()
+        .unwrap_or(stored)
+}
+
 /// A class or sensor name.
 pub type Name = String<NAME_LEN>;
 /// The model name or the creation date.
@@ -2436,5 +2456,14 @@ mod tests {
                 _ => {}
             }
         }
+    }
+
+    #[test]
+    fn indicator_names_come_back_whole() {
+        for n in INDICATOR_NAMES {
+            let stored: Name = Name::try_from(&n[..n.len().min(NAME_LEN)]).unwrap();
+            assert_eq!(indicator_full_name(stored.as_str()), n);
+        }
+        assert_eq!(indicator_full_name("my_indicator"), "my_indicator");
     }
 }

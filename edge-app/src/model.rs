@@ -227,7 +227,7 @@ impl Diagnoser for ModelDiagnoser {
         for k in 0..self.model.indicators() {
             let z = s * out.indicators[k] as f32;
             indicators.insert(
-                ind.names[k].as_str().into(),
+                model_file::indicator_full_name(ind.names[k].as_str()).into(),
                 json!(round4(ind.mean[k] + ind.std[k] * z)),
             );
         }

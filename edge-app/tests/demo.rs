@@ -39,6 +39,12 @@ fn demo_log_diagnoses_match_the_records_labels() {
     let (mut inside, mut right) = (0, 0);
     for line in String::from_utf8(out.stdout).unwrap().lines() {
         let v: serde_json::Value = serde_json::from_str(line).unwrap();
+        // The indicators under their full names (the file keeps 16 bytes of each).
+        let ind = v["diagnosis"]["indicators"].as_object().unwrap();
+        let names: Vec<&str> = ind.keys().map(String::as_str).collect();
+        let mut want = pumptwin_core::model_file::INDICATOR_NAMES.to_vec();
+        want.sort_unstable();
+        assert_eq!(names, want);
         let start = v["start_sample"].as_u64().unwrap();
         let first = start.saturating_sub(FIR_DELAY);
         let last = start + 2048 - FIR_DELAY;

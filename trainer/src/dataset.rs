@@ -93,13 +93,8 @@ pub const STEPS: usize = SEGMENTS;
 pub const FEATURES: usize = FEATURE_DIM;
 /// Physical indicators of the indicator head (eq. 13).
 pub const N_INDICATORS: usize = 4;
-/// Names of the indicators, in output order.
-pub const INDICATOR_NAMES: [&str; N_INDICATORS] = [
-    "impact_intensity",
-    "dominant_band_energy_ratio",
-    "adjacent_node_energy_difference_db",
-    "graph_embedding_inconsistency",
-];
+/// Names of the indicators, in output order (the core's, which the edge reads back).
+pub const INDICATOR_NAMES: [&str; N_INDICATORS] = pumptwin_core::model_file::INDICATOR_NAMES;
 
 /// Index of `rms` in a feature row.
 const RMS: usize = feature_index("rms");
