@@ -168,3 +168,40 @@ fn a_mesh_order_is_named_as_a_shaft_order() {
         step.evidence.summary
     );
 }
+
+/// A DC offset and a drifting baseline are the sensor's, not the bearing's: the loop
+/// AC-couples the record first, so it fits and reports as it does without them.
+#[test]
+fn an_offset_and_a_drifting_baseline_change_nothing() {
+    let clean = generate(Injected::None, Strength::Realistic, 4.0, 43).expect("generator");
+    let n = clean.len() as f64;
+    let shifted: Vec<f32> = clean
+        .iter()
+        .enumerate()
+        .map(|(i, v)| {
+            let t = i as f64 / f64::from(FS_HZ);
+            v + (0.5 + i as f64 / n + 0.3 * (2.0 * std::f64::consts::PI * 0.3 * t).sin()) as f32
+        })
+        .collect();
+    let loop_of = |signal: Vec<f32>| {
+        let input = LoopInput {
+            signal,
+            fs_hz: FS_HZ,
+            rpm: RPM,
+            bearing: BearingGeometry::CWRU_6205_DE,
+        };
+        run(&input, &LoopConfig::default()).expect("loop").0
+    };
+    let (a, b) = (loop_of(clean), loop_of(shifted));
+    assert_eq!(a.effects, b.effects);
+    assert!(b.effects.is_empty(), "{:?}", b.effects);
+    let (ea, eb) = (a.error_final, b.error_final);
+    assert!(
+        (ea.psd_log_rmse_db - eb.psd_log_rmse_db).abs() < 0.05,
+        "{ea:?} {eb:?}"
+    );
+    assert!(
+        (ea.envelope_rmse - eb.envelope_rmse).abs() < 0.05 * ea.envelope_rmse,
+        "{ea:?} {eb:?}"
+    );
+}
