@@ -497,6 +497,32 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
             };
             let trial = fit(&start, &target, &trial_cfg)?;
             evaluations += trial.evaluations;
+            // A second start with the effect's strength parameters at a twentieth of
+            // their typical value, near "no effect" (the parameters are logarithmic, so
+            // "none" itself is out of reach): the refit keeps whichever ends lower, so a
+            // real effect is not lost to a poor starting point.
+            let mut weak = start.clone();
+            for p in weak.params.iter_mut().skip(current.model.params.len()) {
+                if p.name.starts_with("ln_fn") || p.name.starts_with("ln_zeta") {
+                    continue;
+                }
+                if p.name.starts_with("ln_") || p.name.starts_with("logit_") {
+                    p.value -= 20f64.ln();
+                } else {
+                    p.value /= 20.0;
+                }
+            }
+            let trial = match fit(&weak, &target, &trial_cfg) {
+                Ok(w) => {
+                    evaluations += w.evaluations;
+                    if w.cost < trial.cost {
+                        w
+                    } else {
+                        trial
+                    }
+                }
+                Err(_) => trial,
+            };
             // The effect must explain its own evidence (the statistic behind it halves,
             // or the lines drop by 3 dB) and lower the global error by at least 1 %; or it
             // must lower the global error by `min_relative_gain` on its own.
