@@ -14,15 +14,20 @@ use pumptwin_trainer::twin::closed_loop::{run, LoopConfig, LoopInput, LoopReport
 use pumptwin_trainer::twin::generate::{generate, Injected, Strength, FS_HZ, RPM};
 use pumptwin_trainer::twin::model::Effect;
 
-fn loop_on(effect: Injected, strength: Strength, seed: u64) -> LoopReport {
-    let x = generate(effect, strength, 4.0, seed).expect("generator");
+/// The loop on `signal`, told what the generator's records are (12 kHz, 1797 rpm, the
+/// 6205 drive-end bearing).
+fn loop_signal(signal: Vec<f32>) -> LoopReport {
     let input = LoopInput {
-        signal: x,
+        signal,
         fs_hz: FS_HZ,
         rpm: RPM,
         bearing: BearingGeometry::CWRU_6205_DE,
     };
     run(&input, &LoopConfig::default()).expect("loop").0
+}
+
+fn loop_on(effect: Injected, strength: Strength, seed: u64) -> LoopReport {
+    loop_signal(generate(effect, strength, 4.0, seed).expect("generator"))
 }
 
 fn check_realistic(effect: Injected) {
@@ -115,13 +120,7 @@ fn loop_with_tone(f_hz: f64, amp_g: f64) -> LoopReport {
         let t = i as f64 / f64::from(FS_HZ);
         *v += (amp_g * (2.0 * std::f64::consts::PI * f_hz * t).sin()) as f32;
     }
-    let input = LoopInput {
-        signal: x,
-        fs_hz: FS_HZ,
-        rpm: RPM,
-        bearing: BearingGeometry::CWRU_6205_DE,
-    };
-    run(&input, &LoopConfig::default()).expect("loop").0
+    loop_signal(x)
 }
 
 /// A tone nobody declared is found and placed at its frequency whatever its strength —
@@ -183,16 +182,7 @@ fn an_offset_and_a_drifting_baseline_change_nothing() {
             v + (0.5 + i as f64 / n + 0.3 * (2.0 * std::f64::consts::PI * 0.3 * t).sin()) as f32
         })
         .collect();
-    let loop_of = |signal: Vec<f32>| {
-        let input = LoopInput {
-            signal,
-            fs_hz: FS_HZ,
-            rpm: RPM,
-            bearing: BearingGeometry::CWRU_6205_DE,
-        };
-        run(&input, &LoopConfig::default()).expect("loop").0
-    };
-    let (a, b) = (loop_of(clean), loop_of(shifted));
+    let (a, b) = (loop_signal(clean), loop_signal(shifted));
     assert_eq!(a.effects, b.effects);
     assert!(b.effects.is_empty(), "{:?}", b.effects);
     let (ea, eb) = (a.error_final, b.error_final);
