@@ -195,3 +195,22 @@ fn an_offset_and_a_drifting_baseline_change_nothing() {
         "{ea:?} {eb:?}"
     );
 }
+
+/// Dropouts (5 ms of zeros every 0.5 s) leave no spectral component, but they change
+/// the time statistics: the loop does not call that residual noise-like, and says why.
+#[test]
+fn dropouts_are_not_called_noise() {
+    let mut x = generate(Injected::None, Strength::Realistic, 6.0, 1).expect("generator");
+    let fs = FS_HZ as usize;
+    for start in (fs / 4..x.len()).step_by(fs / 2) {
+        let end = (start + fs / 200).min(x.len());
+        x[start..end].iter_mut().for_each(|v| *v = 0.0);
+    }
+    let report = loop_signal(x);
+    assert!(!report.residual_noise_like, "{}", report.stop_reason);
+    assert!(
+        report.stop_reason.contains("time statistics"),
+        "{}",
+        report.stop_reason
+    );
+}

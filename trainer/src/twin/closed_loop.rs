@@ -60,6 +60,10 @@ pub fn ac_couple(x: &[f32], fs_hz: f32) -> Vec<f32> {
     v.iter().zip(&base).map(|(a, b)| (a - b) as f32).collect()
 }
 
+/// Largest |ln(model/measured)| of RMS and of kurtosis for a residual with no
+/// spectral component to be called noise-like (about ±20 %).
+pub const TIME_STATS_TOLERANCE: f32 = 0.2;
+
 /// Loop settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LoopConfig {
@@ -472,8 +476,24 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
         let significant = unexplained(&analysis, &current.model, &sig_res, span_s).len();
         last_analysis = analysis;
         if significant == 0 && candidates.is_empty() {
-            residual_noise_like = true;
-            stop_reason = "the residual is noise-like: no component stands above the floor".into();
+            // No spectral component is left; the time statistics must agree too, or
+            // something the spectra do not show (dropouts, clipping, bursts) is missing.
+            let f = &current.figures;
+            if f.log_rms_ratio.abs() <= TIME_STATS_TOLERANCE
+                && f.log_kurtosis_ratio.abs() <= TIME_STATS_TOLERANCE
+            {
+                residual_noise_like = true;
+                stop_reason =
+                    "the residual is noise-like: no component stands above the floor".into();
+            } else {
+                stop_reason = format!(
+                    "no spectral component stands above the floor, but the time statistics \
+                     disagree (RMS x{:.2}, kurtosis x{:.2} model/measured): an effect the \
+                     spectra do not show (dropouts, clipping, bursts, non-stationary noise)",
+                    f.log_rms_ratio.exp(),
+                    f.log_kurtosis_ratio.exp()
+                );
+            }
             break;
         }
         if steps.len() >= cfg.max_steps {
