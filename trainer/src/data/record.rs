@@ -348,10 +348,19 @@ pub fn recording_from_cwru_mat(
                 .join(", "),
         });
     }
-    let file_rpm = pick(mat, "RPM", by_number, &counts)
+    let rpm_var = pick(mat, "RPM", by_number, &counts);
+    let file_rpm = rpm_var
         .and_then(|v| v.data.first().copied())
         .map(|x| x as f32)
         .filter(|x| x.is_finite() && *x > 0.0);
+    if let (Some(v), None) = (rpm_var, file_rpm) {
+        // Said, not dropped in silence: the caller's --rpm (or its absence) decides.
+        eprintln!(
+            "{name}: variable {} holds {:?}, not a shaft speed: ignored",
+            v.name,
+            v.data.first()
+        );
+    }
     let recording = Recording {
         name: name.to_string(),
         fs_hz,
