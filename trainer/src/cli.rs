@@ -661,7 +661,10 @@ fn run_twin_loop(args: &TwinLoopArgs) -> Result<()> {
         rpm,
         bearing,
     };
-    let (report, artifacts) = run(&input, &LoopConfig::default())?;
+    let (mut report, artifacts) = run(&input, &LoopConfig::default())?;
+    if let Some(c) = raw.channel(&channel.name) {
+        crate::twin::closed_loop::note_clipping(&mut report, &c.samples);
+    }
     let f = bearing.frequencies(rpm / 60.0);
     crate::twin::report::write(&args.out, &report, &artifacts, &kinematic_markers(&f))?;
     outln!(
@@ -718,17 +721,6 @@ pub struct TwinCwruArgs {
     pub reports: PathBuf,
 }
 
-/// Samples sitting on the record's extreme value (within 0.01 % of the peak, either
-/// sign): an ADC driven into its rail returns the same extreme code again and again,
-/// while an unclipped peak is reached once.
-fn rail_hits(x: &[f32]) -> usize {
-    let peak = x.iter().fold(0.0f32, |m, v| m.max(v.abs()));
-    if peak <= 0.0 {
-        return 0;
-    }
-    x.iter().filter(|v| v.abs() >= 0.9999 * peak).count()
-}
-
 /// Run the loop on the 0 HP record of every fault type and size, the normal record and
 /// the two records known to clip (236, 237), and write a markdown summary.
 pub fn run_twin_cwru(args: &TwinCwruArgs) -> Result<()> {
@@ -746,7 +738,6 @@ pub fn run_twin_cwru(args: &TwinCwruArgs) -> Result<()> {
         let raw = load_recording(&entry.path, Some(entry.fs_hz), None)
             .with_context(|| format!("load {}", entry.path.display()))?;
         let rpm = raw.rpm.or(entry.rpm_recorded).context("rpm")?;
-        let clip = raw.channel("DE").map_or(0, |c| rail_hits(&c.samples));
         let rec = preprocess(&raw, &PreprocessConfig::default())?;
         let de = rec.channel("DE").context("DE channel")?;
         let input = LoopInput {
@@ -755,7 +746,11 @@ pub fn run_twin_cwru(args: &TwinCwruArgs) -> Result<()> {
             rpm,
             bearing: BearingGeometry::CWRU_6205_DE,
         };
-        let (report, artifacts) = run(&input, &LoopConfig::default())?;
+        let (mut report, artifacts) = run(&input, &LoopConfig::default())?;
+        if let Some(c) = raw.channel("DE") {
+            crate::twin::closed_loop::note_clipping(&mut report, &c.samples);
+        }
+        let clip = report.rail_hits.unwrap_or(0);
         let dir = args.reports.join(&raw.name);
         crate::twin::report::write(
             &dir,
@@ -886,8 +881,10 @@ const KNOWN_CWRU: &str = "
   Records 236 and 237 are known to clip; the last column counts DE samples within
   0.01 % of the record's peak value: a clean peak is reached once, a signal driven into
   the ADC rail (±6.653 g here) returns the rail value repeatedly. Clipping is not one of
-  the loop's modelled effects; a few clipped impacts change the spectra too little to
-  leave a residual the loop could trace.
+  the model's effects (a few clipped impacts change the spectra too little to leave a
+  residual to trace), so the loop reads it off the record as read (`rail_hits`,
+  `clipped` in `report.json`: 3 or more samples on the peak value) and says so in its
+  stop reason, as it does for 236 and 237.
 - **~4.2 kHz interference**: lines near 4.2 kHz that are not shaft orders appear in
   several records; when the loop reports an `unexplained_periodic` near there, that is
   the known acquisition interference, not a bearing effect.

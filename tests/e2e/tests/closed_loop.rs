@@ -10,7 +10,7 @@
 //! - clean control: no effect claimed, and the residual is noise-like.
 
 use pumptwin_core::bearing::BearingGeometry;
-use pumptwin_trainer::twin::closed_loop::{run, LoopConfig, LoopInput, LoopReport};
+use pumptwin_trainer::twin::closed_loop::{note_clipping, run, LoopConfig, LoopInput, LoopReport};
 use pumptwin_trainer::twin::generate::{generate, Injected, Strength, FS_HZ, RPM};
 use pumptwin_trainer::twin::model::Effect;
 
@@ -210,6 +210,29 @@ fn dropouts_are_not_called_noise() {
     assert!(!report.residual_noise_like, "{}", report.stop_reason);
     assert!(
         report.stop_reason.contains("time statistics"),
+        "{}",
+        report.stop_reason
+    );
+}
+
+/// Clipping is the measurement's, not the bearing's: a record clipped at 60 % of its
+/// peak sits on its rails hundreds of times, is reported `clipped` and never called
+/// noise-like; the same record unclipped reaches its peak once.
+#[test]
+fn a_clipped_record_is_named_clipped() {
+    let x = generate(Injected::None, Strength::Realistic, 4.0, 45).expect("generator");
+    let mut clean = loop_signal(x.clone());
+    note_clipping(&mut clean, &x);
+    assert_eq!((clean.rail_hits, clean.clipped), (Some(1), false));
+    let rail = 0.6 * x.iter().fold(0.0f32, |m, v| m.max(v.abs()));
+    let clipped: Vec<f32> = x.iter().map(|v| v.clamp(-rail, rail)).collect();
+    let mut report = loop_signal(clipped.clone());
+    note_clipping(&mut report, &clipped);
+    assert!(report.clipped, "{:?}", report.rail_hits);
+    assert!(report.rail_hits.unwrap() > 100, "{:?}", report.rail_hits);
+    assert!(!report.residual_noise_like);
+    assert!(
+        report.stop_reason.contains("clipped"),
         "{}",
         report.stop_reason
     );

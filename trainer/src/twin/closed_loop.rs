@@ -60,6 +60,34 @@ pub fn ac_couple(x: &[f32], fs_hz: f32) -> Vec<f32> {
     v.iter().zip(&base).map(|(a, b)| (a - b) as f32).collect()
 }
 
+/// Rail hits ([`LoopReport::rail_hits`]) from which a record counts as clipped.
+pub const CLIPPED_RAIL_HITS: usize = 3;
+
+/// Samples of `x` within 0.01 % of its peak magnitude (either sign).
+pub fn rail_hits(x: &[f32]) -> usize {
+    let peak = x.iter().fold(0.0f32, |m, v| m.max(v.abs()));
+    if peak <= 0.0 {
+        return 0;
+    }
+    x.iter().filter(|v| v.abs() >= 0.9999 * peak).count()
+}
+
+/// Read clipping off the record as it was read (`raw`, before any filter): clipping
+/// is an effect of the measurement that no bearing model has, so a clipped record's
+/// residual is never called noise-like, and the report says what was found.
+pub fn note_clipping(report: &mut LoopReport, raw: &[f32]) {
+    let hits = rail_hits(raw);
+    report.rail_hits = Some(hits);
+    report.clipped = hits >= CLIPPED_RAIL_HITS;
+    if report.clipped {
+        report.residual_noise_like = false;
+        report.stop_reason.push_str(&format!(
+            "; the record as read sits on its peak value {hits} times: clipped at the \
+             acquisition's rail, an effect of the measurement the model does not have"
+        ));
+    }
+}
+
 /// Largest |ln(model/measured)| of RMS and of kurtosis for a residual with no
 /// spectral component to be called noise-like (about ±20 %).
 pub const TIME_STATS_TOLERANCE: f32 = 0.2;
@@ -159,6 +187,13 @@ pub struct LoopReport {
     pub residual_noise_like: bool,
     /// Why the loop stopped.
     pub stop_reason: String,
+    /// Samples of the record as read (before the band limit, which rounds the rails
+    /// off) within 0.01 % of its peak magnitude, when the caller had them
+    /// ([`note_clipping`]): an unclipped peak is reached once, an ADC driven into its
+    /// rail returns the same extreme code again and again.
+    pub rail_hits: Option<usize>,
+    /// [`rail_hits`](Self::rail_hits) of at least [`CLIPPED_RAIL_HITS`].
+    pub clipped: bool,
     /// Candidates tried and rejected.
     pub rejected: Vec<RejectedCandidate>,
     /// Significant residual components left at the end (defect-comb lines excluded).
@@ -629,6 +664,8 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
         stop_reason,
         rejected,
         residual_components_final: unexplained(&last_analysis, &current.model, &sig_res, span_s),
+        rail_hits: None,
+        clipped: false,
         seconds: t0.elapsed().as_secs_f64(),
         evaluations,
     };
