@@ -374,8 +374,9 @@ pub fn band_share(db: f32) -> f32 {
     math::exp(f64::from(db) / 10.0 * core::f64::consts::LN_10) as f32
 }
 
-/// Bin position of a peak refined by a parabola through its neighbours.
-fn interpolated_peak(p: &[f32], k: usize) -> f32 {
+/// Bin position of a peak at bin `k` of `p` refined by a parabola through its
+/// neighbours (`k` itself at either end of `p`, or where the three are collinear).
+pub fn interpolated_peak(p: &[f32], k: usize) -> f32 {
     if k == 0 || k + 1 >= p.len() {
         return k as f32;
     }

@@ -78,6 +78,26 @@ pub const fn decimated_len(n: usize, factor: usize) -> usize {
     }
 }
 
+/// Index `i` of a record of `n ≥ 1` samples extended by mirror reflection at both
+/// ends, without repeating the edge sample (`−1 → 1`, `n → n − 2`), folded until it
+/// lies inside (records shorter than the filter); 0 for `n ≤ 1`.
+pub fn mirror_index(i: isize, n: usize) -> usize {
+    let n = n as isize;
+    let mut i = i;
+    loop {
+        if n <= 1 {
+            return 0;
+        }
+        if i < 0 {
+            i = -i;
+        } else if i >= n {
+            i = 2 * (n - 1) - i;
+        } else {
+            return i as usize;
+        }
+    }
+}
+
 /// Zero-phase filtering (the linear-phase delay is compensated) followed by keeping
 /// every `factor`-th sample: `out[k] = Σ_j h[j] · x[k·M + (L−1)/2 − j]`.
 /// The record is extended by mirror reflection at both ends, so the edges carry no
@@ -102,22 +122,6 @@ pub fn filter_decimate(input: &[f32], taps: &[f32], factor: usize, out: &mut [f3
     }
     let half = (taps.len() - 1) / 2;
     let n_i = n as isize;
-    let reflect = |i: isize| -> usize {
-        // Mirror without repeating the edge sample; fold until inside (short records).
-        let mut i = i;
-        loop {
-            if i < 0 {
-                i = -i;
-            } else if i >= n_i {
-                i = 2 * (n_i - 1) - i;
-            } else {
-                return i as usize;
-            }
-            if n_i == 1 {
-                return 0;
-            }
-        }
-    };
     for (k, y) in out.iter_mut().enumerate() {
         let centre = (k * factor) as isize;
         let lo = centre - half as isize;
@@ -131,7 +135,7 @@ pub fn filter_decimate(input: &[f32], taps: &[f32], factor: usize, out: &mut [f3
             }
         } else {
             for (j, h) in taps.iter().enumerate() {
-                acc += h * input[reflect(centre + half as isize - j as isize)];
+                acc += h * input[mirror_index(centre + half as isize - j as isize, n)];
             }
         }
         *y = acc;

@@ -359,6 +359,24 @@ impl RecordArgs {
     }
 }
 
+/// At least one of `nodes` is a channel of `rec` (read from `input`): a record none of
+/// whose channels is a node has nothing to read, which is an error that lists both
+/// rather than every window masked.
+pub fn ensure_a_node_channel(rec: &Recording, nodes: &[&str], input: &Path) -> Result<()> {
+    ensure!(
+        nodes.iter().any(|n| rec.channel(n).is_some()),
+        "{}: none of its channels {:?} is one of the node channels {:?}; name the CSV \
+         columns (or the .mat variables' suffixes) after them",
+        input.display(),
+        rec.channels
+            .iter()
+            .map(|c| c.name.as_str())
+            .collect::<Vec<_>>(),
+        nodes
+    );
+    Ok(())
+}
+
 /// `pumptwin features`: the core's node features and dynamic graphs for a record.
 #[derive(Debug, Clone, clap::Args)]
 pub struct FeaturesArgs {
@@ -388,18 +406,7 @@ pub fn run_features(args: &FeaturesArgs) -> Result<()> {
             names.len()
         )
     })?;
-    if nodes.iter().all(|n| rec.channel(n).is_none()) {
-        bail!(
-            "{}: none of its channels {:?} is one of the node channels {:?}; name the CSV \
-             columns after them, or pass --channels",
-            args.record.input.display(),
-            rec.channels
-                .iter()
-                .map(|c| c.name.as_str())
-                .collect::<Vec<_>>(),
-            nodes
-        );
-    }
+    ensure_a_node_channel(&rec, &nodes, &args.record.input)?;
     let shaft = rpm / 60.0;
     let cfg = feature_config(rec.fs_hz, shaft, bearing.orders());
     if rec.len() < WINDOW {

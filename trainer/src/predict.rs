@@ -203,17 +203,7 @@ fn predict_with<const N: usize>(
         .filter(|n| src.channel(n).is_none())
         .map(|n| (*n).to_string())
         .collect();
-    anyhow::ensure!(
-        missing.len() < N,
-        "{}: none of its channels {:?} is a sensor of the model ({}); name the CSV columns \
-         (or the .mat variables' suffixes) after the model's sensors",
-        args.record.input.display(),
-        rec.channels
-            .iter()
-            .map(|c| c.name.as_str())
-            .collect::<Vec<_>>(),
-        nodes.join(", ")
-    );
+    crate::cli::ensure_a_node_channel(src, &nodes, &args.record.input)?;
     // A window with no usable sensor (every channel missing, dead or non-finite
     // there) has nothing to diagnose: it is reported as `no_signal`, counted, and
     // left out of the model and the majority, never given a class.
@@ -283,8 +273,9 @@ fn predict_with<const N: usize>(
     let mut class_counts: BTreeMap<String, usize> = BTreeMap::new();
     let mut probs = probs.iter();
     for (w, &ok) in wf.iter().zip(&usable) {
-        let (class, probabilities) = match (ok, if ok { probs.next() } else { None }) {
-            (true, Some(p)) => {
+        // The diagnosed windows' probabilities come in window order.
+        let (class, probabilities) = match ok.then(|| probs.next()).flatten() {
+            Some(p) => {
                 let best = (0..p.len()).fold(0, |b, c| if p[c] > p[b] { c } else { b });
                 let class = classes.get(best).cloned().unwrap_or_default();
                 *class_counts.entry(class.clone()).or_default() += 1;

@@ -206,20 +206,15 @@ pub fn parse_csv(
 
 /// The sensor each column names (module docs), or its own name.
 fn sensor_names(names: Vec<String>) -> Vec<String> {
+    // The one sensor the name's tokens name (none, or two different ones: None).
     let sensor = |n: &str| -> Option<&'static str> {
-        let mut found = None;
-        for token in n.split(['_', '-', ' ', '.']) {
-            let s = ["DE", "FE", "BA"]
+        let mut found = n.split(['_', '-', ' ', '.']).filter_map(|token| {
+            ["DE", "FE", "BA"]
                 .into_iter()
-                .find(|s| token.eq_ignore_ascii_case(s));
-            match (found, s) {
-                (_, None) => {}
-                (None, Some(s)) => found = Some(s),
-                (Some(f), Some(s)) if f != s => return None,
-                (Some(_), Some(_)) => {}
-            }
-        }
-        found
+                .find(|s| token.eq_ignore_ascii_case(s))
+        });
+        let first = found.next()?;
+        found.all(|s| s == first).then_some(first)
     };
     let mapped: Vec<Option<&str>> = names.iter().map(|n| sensor(n)).collect();
     names

@@ -39,7 +39,9 @@
 //! difference between 48 kHz and 12 kHz records, the very thing the band limit is
 //! there to remove. A native-rate record gets the `L0`-tap filter at f_c.
 
-use pumptwin_core::fir::{decimated_len, design_lowpass, filter_decimate, BAND_LIMIT_HZ};
+use pumptwin_core::fir::{
+    decimated_len, design_lowpass, filter_decimate, mirror_index, BAND_LIMIT_HZ,
+};
 
 use super::record::{Channel, Recording};
 
@@ -211,8 +213,9 @@ pub struct Resampler {
     pub ratio: f64,
     /// Kernel half-width in source samples, `(L − 1) / 2` for the decimator's `L`.
     half_width: usize,
-    /// The kernel at `|τ| = i / TABLE_STEPS` source samples, `i = 0 ..= half_width · TABLE_STEPS`.
-    table: Vec<f64>,
+    /// The kernel at `|τ| = i / TABLE_STEPS` source samples, `i = 0 ..= half_width · TABLE_STEPS`
+    /// (unnormalized: each output divides by its weights' sum).
+    table: Vec<f32>,
 }
 
 impl Resampler {
@@ -235,19 +238,17 @@ impl Resampler {
         let len = (taps_at_model.max(3) as f64 * ratio).round() as usize;
         let len = len + (1 - len % 2);
         let half_width = (len - 1) / 2;
-        let h = half_width as f64;
-        let table = (0..=half_width * TABLE_STEPS)
-            .map(|i| {
-                let x = i as f64 / TABLE_STEPS as f64;
-                let sinc = if i == 0 {
-                    2.0 * fc
-                } else {
-                    (2.0 * std::f64::consts::PI * fc * x).sin() / (std::f64::consts::PI * x)
-                };
-                let a = std::f64::consts::PI * x / h;
-                sinc * (0.42 + 0.5 * a.cos() + 0.08 * (2.0 * a).cos())
-            })
-            .collect();
+        // The decimator's kernel (the core's windowed sinc), designed at TABLE_STEPS
+        // times the source rate over the same span in seconds: its right half is the
+        // kernel at every TABLE_STEPS-th of a source sample.
+        let mut fine = vec![0.0f32; 2 * half_width * TABLE_STEPS + 1];
+        design_lowpass(cutoff_hz, fs_hz * TABLE_STEPS as f32, &mut fine).map_err(|source| {
+            PreprocessError::Filter {
+                channel: "(design)".into(),
+                source,
+            }
+        })?;
+        let table = fine.split_off(half_width * TABLE_STEPS);
         Ok(Self {
             ratio,
             half_width,
@@ -260,8 +261,8 @@ impl Resampler {
         let p = tau.abs() * TABLE_STEPS as f64;
         let i = p.floor() as usize;
         match (self.table.get(i), self.table.get(i + 1)) {
-            (Some(&a), Some(&b)) => a + (b - a) * (p - i as f64),
-            (Some(&a), None) if p == i as f64 => a,
+            (Some(&a), Some(&b)) => f64::from(a) + f64::from(b - a) * (p - i as f64),
+            (Some(&a), None) if p == i as f64 => f64::from(a),
             _ => 0.0,
         }
     }
@@ -278,22 +279,6 @@ impl Resampler {
         if x.iter().any(|v| !v.is_finite()) {
             return Err(pumptwin_core::Error::NonFinite);
         }
-        let n = x.len() as isize;
-        let reflect = |mut i: isize| -> f32 {
-            // Mirror without repeating the edge sample; fold until inside.
-            loop {
-                if n == 1 {
-                    return x[0];
-                }
-                if i < 0 {
-                    i = -i;
-                } else if i >= n {
-                    i = 2 * (n - 1) - i;
-                } else {
-                    return x[i as usize];
-                }
-            }
-        };
         let hw = self.half_width as isize;
         Ok((0..resampled_len(x.len(), self.ratio))
             .map(|m| {
@@ -302,7 +287,7 @@ impl Resampler {
                 let (mut acc, mut sum) = (0.0f64, 0.0f64);
                 for j in centre - hw..=centre + hw + 1 {
                     let w = self.weight(t - j as f64);
-                    acc += w * f64::from(reflect(j));
+                    acc += w * f64::from(x[mirror_index(j, x.len())]);
                     sum += w;
                 }
                 (acc / sum) as f32
@@ -334,32 +319,34 @@ impl FilterPlan {
             });
         }
         let anti_alias = MAX_CUTOFF_FRACTION * cfg.target_fs_hz;
-        let factor = match decimation_factor(fs_hz, cfg.target_fs_hz) {
-            Ok(m) => m,
-            Err(PreprocessError::NonIntegerRatio { ratio, .. }) => {
-                let cutoff_hz = cfg.band_limit_hz.unwrap_or(anti_alias).min(anti_alias);
-                if !(cutoff_hz.is_finite() && cutoff_hz > 0.0) {
-                    return Err(PreprocessError::BadConfig {
-                        reason: format!("band limit {cutoff_hz} Hz must be positive and finite"),
-                    });
-                }
-                return Ok(Self {
-                    factor: 1,
-                    cutoff_hz: Some(cutoff_hz),
-                    taps: Vec::new(),
-                    resampler: Some(Resampler::new(ratio, cutoff_hz, fs_hz, cfg.taps)?),
-                });
-            }
+        // An integer factor, or the ratio the resampler takes.
+        let rate = match decimation_factor(fs_hz, cfg.target_fs_hz) {
+            Ok(m) => Ok(m),
+            Err(PreprocessError::NonIntegerRatio { ratio, .. }) => Err(ratio),
             Err(e) => return Err(e),
         };
-        let cutoff_hz = match (cfg.band_limit_hz, factor) {
-            (None, 1) => None,
+        // One cutoff rule for both: nothing to filter only at the native rate without a
+        // band limit; otherwise the band limit, never above the anti-alias cutoff.
+        let cutoff_hz = match (cfg.band_limit_hz, rate) {
+            (None, Ok(1)) => None,
             (None, _) => Some(anti_alias),
             (Some(b), _) if b.is_finite() && b > 0.0 => Some(b.min(anti_alias)),
             (Some(b), _) => {
                 return Err(PreprocessError::BadConfig {
                     reason: format!("band limit {b} Hz must be positive and finite"),
                 })
+            }
+        };
+        let factor = match (rate, cutoff_hz) {
+            (Ok(m), _) => m,
+            (Err(ratio), fc) => {
+                let fc = fc.unwrap_or(anti_alias);
+                return Ok(Self {
+                    factor: 1,
+                    cutoff_hz: Some(fc),
+                    taps: Vec::new(),
+                    resampler: Some(Resampler::new(ratio, fc, fs_hz, cfg.taps)?),
+                });
             }
         };
         let taps = match cutoff_hz {

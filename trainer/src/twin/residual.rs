@@ -211,22 +211,16 @@ pub fn significant_components(
             let left = (start..peak).rev().take_while(|&k| d[k] > top).count();
             let right = (peak + 1..=end).take_while(|&k| d[k] > top).count();
             let core_bins = left + 1 + right;
-            // The peak's frequency between bins: a parabola through the dB values of
-            // the peak bin and its neighbours (Hann: error under a tenth of a bin), so
-            // that a line 4 Hz off a shaft order is not taken for it, and a fitted tone
-            // lands on its frequency, not on the bin grid.
-            let delta = match (peak.checked_sub(1).and_then(|k| d.get(k)), d.get(peak + 1)) {
-                (Some(&a), Some(&c)) if core_bins <= LINE_MAX_BINS => {
-                    let den = a - 2.0 * d[peak] + c;
-                    if den < 0.0 {
-                        f64::from((0.5 * (a - c) / den).clamp(-0.5, 0.5))
-                    } else {
-                        0.0
-                    }
-                }
-                _ => 0.0,
+            // A line's frequency between bins: the core's parabola through the dB values
+            // of the peak bin and its neighbours (Hann: error under a tenth of a bin),
+            // so that a line 4 Hz off a shaft order is not taken for it, and a fitted
+            // tone lands on its frequency, not on the bin grid.
+            let at = if core_bins <= LINE_MAX_BINS {
+                f64::from(pumptwin_core::features::interpolated_peak(d, peak))
+            } else {
+                peak as f64
             };
-            let f = (peak as f64 + delta) * df;
+            let f = at * df;
             let (kind, width_bins) = if peak == *bins.start() && peak > 0 {
                 ("below_band", end - start + 1)
             } else if peak == *bins.end() {
