@@ -94,6 +94,9 @@ pub struct ExtraTerms {
     pub output_lines: Vec<(f64, f32)>,
     /// Linear speed drift (fraction per second) of impacts and shaft terms.
     pub speed_drift_per_s: f64,
+    /// Further impact trains in the radial force (a second defect, a rub, impacts from
+    /// a neighbouring machine), each with its own rate, level and modulation.
+    pub impact_trains: Vec<ImpactTrain>,
 }
 
 /// Errors from a simulation.
@@ -253,7 +256,10 @@ pub fn simulate(spec: &SimulationSpec) -> Result<Recording, SimError> {
         };
         s.add_to(grid, 1.0, &mut force_r)?;
     }
-    if !spec.extra.shaft_harmonics.is_empty() {
+    for train in &spec.extra.impact_trains {
+        train.add_to(grid, 1.0, &mut force_r, &mut rng)?;
+    }
+    if !spec.extra.shaft_harmonics.is_empty() || !spec.extra.impact_trains.is_empty() {
         for (t, r) in force_t.iter_mut().zip(force_r.iter()) {
             *t = spec.angular_share * r;
         }

@@ -111,6 +111,8 @@ effect_tests! {
     speed_drift: Injected::SpeedDrift,
     nonlinear_stiffness: Injected::NonlinearStiffness,
     unknown_periodic: Injected::UnknownPeriodic,
+    second_defect: Injected::SecondDefect,
+    unknown_impacts: Injected::UnknownImpacts,
 }
 
 /// The clean record plus one sinusoid of `amp_g` at `f_hz`, looped.

@@ -377,33 +377,8 @@ fn unexplained(
 /// limit (a periodic impact train puts lines at every k·rate). Returns the rate factor
 /// `rate / kinematic − 1`.
 fn refine_rate(target_res: &Target, kinematic_hz: f32) -> f64 {
-    let cfg = &target_res.cfg;
-    let db = &target_res.psd_db;
-    let df = cfg.fs_hz / cfg.psd_n as f32;
-    let top = cfg.psd_hi_hz;
-    let score = |rate: f32| -> f32 {
-        let mut s = 0.0;
-        let mut k = 1.0f32;
-        while k * rate < top {
-            let pos = k * rate / df;
-            let i = pos.floor() as usize;
-            let frac = pos - i as f32;
-            if i + 1 < db.len() {
-                s += db[i] * (1.0 - frac) + db[i + 1] * frac;
-            }
-            k += 1.0;
-        }
-        s / (k - 1.0).max(1.0)
-    };
-    let mut best = (0.0f64, f32::NEG_INFINITY);
-    for i in -3000..=3000 {
-        let factor = f64::from(i) * 1e-5;
-        let sc = score(kinematic_hz * (1.0 + factor as f32));
-        if sc > best.1 {
-            best = (factor, sc);
-        }
-    }
-    best.0
+    let k = f64::from(kinematic_hz);
+    super::residual::refine_comb_rate(&target_res.psd_db, &target_res.cfg, k, 0.03) / k - 1.0
 }
 
 /// Run the whole loop.

@@ -5,6 +5,7 @@
 
 use crate::sim::{simulate, ExtraTerms, SensorSpec, SimError, SimulationSpec, G};
 use pumptwin_core::bearing::DefectLocation;
+use pumptwin_core::excitation::ImpactTrain;
 use pumptwin_core::simulator::SensorTransfer;
 
 /// The effect a generated record carries.
@@ -28,11 +29,17 @@ pub enum Injected {
     NonlinearStiffness,
     /// A sinusoid at 437.3 Hz nobody declared (not a shaft order, mains line or defect rate).
     UnknownPeriodic,
+    /// A second defect: inner-race impacts at BPFI (modulated by the shaft's turn) on
+    /// top of the outer-race fault, a compound fault.
+    SecondDefect,
+    /// Impacts at 4.37 x the shaft rate, no rate of the bearing (a neighbouring machine,
+    /// a loose part struck at a fixed rate).
+    UnknownImpacts,
 }
 
 impl Injected {
     /// Every injectable effect except the control.
-    pub const EFFECTS: [Injected; 8] = [
+    pub const EFFECTS: [Injected; 10] = [
         Injected::ShaftHarmonics,
         Injected::LoadZoneModulation,
         Injected::Slip,
@@ -41,6 +48,8 @@ impl Injected {
         Injected::SpeedDrift,
         Injected::NonlinearStiffness,
         Injected::UnknownPeriodic,
+        Injected::SecondDefect,
+        Injected::UnknownImpacts,
     ];
 
     /// The effect name the loop should report.
@@ -55,6 +64,7 @@ impl Injected {
             Injected::SpeedDrift => Some("speed_drift"),
             Injected::NonlinearStiffness => Some("nonlinear_stiffness"),
             Injected::UnknownPeriodic => Some("unexplained_periodic"),
+            Injected::SecondDefect | Injected::UnknownImpacts => Some("second_impact_train"),
         }
     }
 }
@@ -134,6 +144,25 @@ pub fn generate(
             spec.params.stiffness_nl_radial = 0.16 * s * spec.params.stiffness_radial / 1e-14;
         }
         Injected::UnknownPeriodic => spec.extra.output_lines = vec![(437.3, 0.05 * s as f32)],
+        Injected::SecondDefect | Injected::UnknownImpacts => {
+            let shaft = f64::from(RPM) / 60.0;
+            let (rate, depth) = if effect == Injected::SecondDefect {
+                let f = spec.bearing.frequencies(RPM / 60.0);
+                (f64::from(f.bpfi), 0.3)
+            } else {
+                (4.37 * shaft, 0.0)
+            };
+            spec.extra.impact_trains = vec![ImpactTrain {
+                amplitude: 0.6 * s * spec.impact_amplitude_n,
+                rate_hz: rate,
+                sigma_s: spec.impact_sigma_s,
+                first_impact_s: 0.21 / rate,
+                modulation_depth: depth,
+                modulation_hz: shaft,
+                jitter: 0.0,
+                rate_drift_per_s: 0.0,
+            }];
+        }
     }
     let rec = simulate(&spec)?;
     Ok(rec

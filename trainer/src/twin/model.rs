@@ -22,6 +22,7 @@
 //! | `line_interference` | output-side sinusoids at electrical lines | ln A per line |
 //! | `unexplained_periodic` | an output-side sinusoid at f | ln A |
 //! | `unexplained_band` | output-side band-limited noise (2nd-order resonator) at f, bandwidth B | ln level |
+//! | `second_impact_train` | a second impact train in the force at its own rate (a second defect, a rub, a struck part): same structure, its own level | ln A₂ |
 
 use crate::sim::G;
 use pumptwin_core::bearing::{DefectFrequencies, DefectLocation};
@@ -89,6 +90,17 @@ pub enum Effect {
         /// `f_hz / f_r`.
         order: f64,
     },
+    /// A second train of impacts in the radial force at `rate_hz`: a compound fault
+    /// (the bearing's other defect rates), impacts once per turn (a rub) or from a
+    /// source the bearing's kinematics do not name. It excites the same structure as
+    /// the modelled defect, so it is a force term, not an output-side one.
+    SecondImpactTrain {
+        /// Impact rate, Hz (from the residual's envelope lines, refined on the PSD comb).
+        rate_hz: f64,
+        /// What the rate matches: `inner_race`, `outer_race`, `ball`, `shaft` (once per
+        /// turn) or `unexplained`.
+        source: String,
+    },
     /// Output-side band noise nobody declared.
     UnexplainedBand {
         /// Centre, Hz.
@@ -111,21 +123,22 @@ impl Effect {
             Effect::LineInterference { .. } => "line_interference",
             Effect::UnexplainedPeriodic { .. } => "unexplained_periodic",
             Effect::UnexplainedBand { .. } => "unexplained_band",
+            Effect::SecondImpactTrain { .. } => "second_impact_train",
         }
     }
 
-    /// Names and initial unconstrained values of the parameters it adds.
-    /// Names and initial unconstrained values of the parameters it adds. `line_amp(f)`
-    /// is the amplitude (output units) of the measured excess at `f`, `force_gain(f)` the
-    /// model's output amplitude per newton of force at `f`.
-    fn initial(
-        &self,
-        noise: f64,
-        line_amp: &dyn Fn(f64) -> Option<f64>,
-        force_gain: &dyn Fn(f64) -> f64,
-        shaft: f64,
-        peak_displacement: f64,
-    ) -> Vec<(String, f64)> {
+    /// Names and initial unconstrained values of the parameters it adds, from what the
+    /// current model and the measurement say (`Start`).
+    fn initial(&self, st: &Start<'_>) -> Vec<(String, f64)> {
+        let Start {
+            noise,
+            line_amp,
+            force_gain,
+            shaft,
+            peak_displacement,
+            impact_amp,
+            background,
+        } = *st;
         let amp_or = |f: f64| line_amp(f).unwrap_or(3.0 * noise).max(1e-9).ln();
         match self {
             Effect::ShaftHarmonics { orders } => orders
@@ -162,8 +175,37 @@ impl Effect {
                 vec![("ln_periodic_amp".into(), amp_or(*f_hz))]
             }
             Effect::UnexplainedBand { .. } => vec![("ln_band_level".into(), noise.ln())],
+            // Half the modelled defect's impact level, or (healthy model) twenty times
+            // the background force; the refit's second start tries a twentieth of it.
+            Effect::SecondImpactTrain { .. } => {
+                let start = if impact_amp > 0.0 {
+                    0.5 * impact_amp
+                } else {
+                    20.0 * background
+                };
+                vec![("ln_impact2_amp".into(), start.max(1e-9).ln())]
+            }
         }
     }
+}
+
+/// What an effect's starting values are taken from.
+#[derive(Clone, Copy)]
+struct Start<'a> {
+    /// Measurement noise σ_y of the current model (output units).
+    noise: f64,
+    /// Amplitude (output units) of the measured excess over the model at a frequency.
+    line_amp: &'a dyn Fn(f64) -> Option<f64>,
+    /// The model's output amplitude per newton of force at a frequency.
+    force_gain: &'a dyn Fn(f64) -> f64,
+    /// Shaft rate, Hz.
+    shaft: f64,
+    /// Peak displacement of one impact's ring-down, m.
+    peak_displacement: f64,
+    /// The modelled defect's impact level, N (0 for a healthy model).
+    impact_amp: f64,
+    /// Background force σ_F, N.
+    background: f64,
 }
 
 /// A named unconstrained parameter.
@@ -266,7 +308,17 @@ impl TwinModel {
             .iter()
             .filter(|(e, _)| e.name() == effect.name())
             .count();
-        for (name, value) in effect.initial(noise, line_amp, &force_gain, shaft, peak) {
+        let background = self.get("ln_background").map_or(0.0, f64::exp);
+        let start = Start {
+            noise,
+            line_amp,
+            force_gain: &force_gain,
+            shaft,
+            peak_displacement: peak,
+            impact_amp: amp,
+            background,
+        };
+        for (name, value) in effect.initial(&start) {
             let name = if repeat > 0 {
                 format!("{name}_{}", repeat + 1)
             } else {
@@ -467,6 +519,25 @@ impl TwinModel {
                     drift_per_s: drift,
                 };
                 s.add_to(grid, 1.0, &mut force_r)?;
+            }
+        }
+        for (e, p) in self.effects_of("second_impact_train") {
+            if let Effect::SecondImpactTrain { rate_hz, source } = e {
+                // Rolling-element slip times every defect's impacts alike; a train
+                // from elsewhere (a rub, a struck part) keeps its own clock.
+                let bearing_defect =
+                    matches!(source.as_str(), "inner_race" | "outer_race" | "ball");
+                let train = ImpactTrain {
+                    amplitude: p[0].value.exp(),
+                    rate_hz: centre * rate_hz,
+                    sigma_s: IMPACT_SIGMA_S,
+                    first_impact_s: 0.61 / rate_hz,
+                    modulation_depth: 0.0,
+                    modulation_hz: 0.0,
+                    jitter: if bearing_defect { jitter } else { 0.0 },
+                    rate_drift_per_s: drift,
+                };
+                train.add_to(grid, 1.0, &mut force_r, &mut rng)?;
             }
         }
         let mut params = BearingParams::from_modal(1.0, fn_hz, zeta, 1000.0, 0.05, 0.0, 0.0)?;

@@ -16,6 +16,9 @@ pub const MIN_EXCESS_DB: f32 = 6.0;
 /// MAD multiplier of the noise floor: 5σ, so that over the ~1600 PSD and ~680
 /// envelope bins a noise-only residual crosses it with probability < 0.1 %.
 pub const MAD_K: f32 = 5.0;
+/// Prominence over its own local median a measured envelope line needs to count when
+/// the residual's spread hides it, dB.
+pub const ENV_LINE_PROMINENCE_DB: f32 = 10.0;
 /// Electrical supply frequencies checked for line interference, Hz.
 pub const MAINS_HZ: [f64; 2] = [50.0, 60.0];
 
@@ -243,34 +246,42 @@ pub fn significant_components(
     (out, thr - med)
 }
 
-/// Is `c` one of the model's own defect lines: a tooth `k·rate` of the impact comb,
-/// a load-zone sideband `k·rate ± m·f_mod` when the model modulates, each within two
-/// bins plus the spread a modelled speed drift gives tooth k over a record of `span_s`?
-/// A small rate mismatch moves high-order teeth by a bin and leaves ± spikes there,
-/// which are the fault term's misfit, not a missing effect.
+/// Is `c` one of the model's own defect lines: a tooth `k·rate` of the impact comb (of
+/// the modelled defect or of a second impact train), a load-zone sideband
+/// `k·rate ± m·f_mod` when the model modulates, each within two bins plus the spread a
+/// modelled speed drift gives tooth k over a record of `span_s`? A small rate mismatch
+/// moves high-order teeth by a bin and leaves ± spikes there, which are the fault
+/// term's misfit, not a missing effect.
 pub fn on_model_comb(model: &TwinModel, c: &Component, df: f64, span_s: f64) -> bool {
     if c.kind != "line" {
         return false;
     }
-    let Some(loc) = model.fault else { return false };
-    let r = f64::from(model.op.freqs.impact_rate(loc))
-        * (1.0 + model.get("rate_factor").unwrap_or(0.0));
     let mut sideband = 0.0;
     let mut drift = 0.0;
+    let mut combs: Vec<(f64, bool)> = Vec::new();
     for (e, first) in &model.effects {
         match e {
             Effect::LoadZoneModulation { mod_hz } => sideband = *mod_hz,
             Effect::SpeedDrift { .. } => drift = model.params[*first].value.abs(),
+            Effect::SecondImpactTrain { rate_hz, .. } => combs.push((*rate_hz, false)),
             _ => {}
         }
     }
-    (-2i32..=2).any(|m| {
-        if m != 0 && sideband == 0.0 {
-            return false;
-        }
-        let f = c.f_hz - f64::from(m) * sideband;
-        let k = (f / r).round();
-        k >= 1.0 && (f - k * r).abs() <= 2.0 * df + 0.002 * c.f_hz + 0.5 * k * r * drift * span_s
+    if let Some(loc) = model.fault {
+        let r = f64::from(model.op.freqs.impact_rate(loc))
+            * (1.0 + model.get("rate_factor").unwrap_or(0.0));
+        combs.push((r, true));
+    }
+    combs.iter().any(|&(r, modulated)| {
+        (-2i32..=2).any(|m| {
+            if m != 0 && (sideband == 0.0 || !modulated) {
+                return false;
+            }
+            let f = c.f_hz - f64::from(m) * sideband;
+            let k = (f / r).round();
+            k >= 1.0
+                && (f - k * r).abs() <= 2.0 * df + 0.002 * c.f_hz + 0.5 * k * r * drift * span_s
+        })
     })
 }
 
@@ -324,7 +335,33 @@ pub fn analyse(
     let se = to_db(&sim.env, &meas.env);
     let de: Vec<f32> = me.iter().zip(&se).map(|(a, b)| a - b).collect();
     let dfe = f64::from(cfg.fs_hz) / cfg.env_n as f64;
-    let (envelope, _) = significant_components(&de, cfg.env_bins(), dfe, shaft_hz, "envelope");
+    let (mut envelope, _) = significant_components(&de, cfg.env_bins(), dfe, shaft_hz, "envelope");
+    // A model that lacks a whole family of envelope lines (a second impact train and
+    // its intermodulation with the first) also misplaces the floor between them, and
+    // the spread that leaves in the residual (MAD 4–5 dB) lifts the 5σ threshold over
+    // every line it lacks. So lines are also read off the measurement itself: a line
+    // of the measured envelope spectrum standing `ENV_LINE_PROMINENCE_DB` over its own
+    // median within ±40 Hz (noise alone: a chance below 1e-3 per bin even for one
+    // Welch segment), which the model lacks by `MIN_EXCESS_DB` or more.
+    let prominence = local_detrend(&me, cfg.env_bins(), (40.0 / dfe).round() as usize);
+    let gated: Vec<f32> = de
+        .iter()
+        .zip(&prominence)
+        .map(|(&d, &p)| {
+            if p >= ENV_LINE_PROMINENCE_DB {
+                d.max(0.0)
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let (prominent, _) = significant_components(&gated, cfg.env_bins(), dfe, shaft_hz, "envelope");
+    for c in prominent {
+        if envelope.iter().all(|e| (e.f_hz - c.f_hz).abs() > 2.0 * dfe) {
+            envelope.push(c);
+        }
+    }
+    envelope.sort_by(|a, b| a.f_hz.total_cmp(&b.f_hz));
     let envelope = envelope.into_iter().filter(|c| c.kind != "band").collect();
     let psd_residual = cfg.psd_bins().map(|k| (cfg.psd_freq(k), d[k])).collect();
     ResidualAnalysis {
@@ -333,6 +370,21 @@ pub fn analyse(
         psd_threshold_db: thr,
         psd_residual,
     }
+}
+
+/// `d` less its running median over `±half` bins inside `bins` (0 outside them).
+fn local_detrend(d: &[f32], bins: std::ops::RangeInclusive<usize>, half: usize) -> Vec<f32> {
+    let (lo, hi) = (*bins.start(), *bins.end());
+    let mut out = vec![0.0f32; d.len()];
+    let mut window = Vec::with_capacity(2 * half + 1);
+    for k in bins {
+        let a = k.saturating_sub(half).max(lo);
+        let b = (k + half).min(hi);
+        window.clear();
+        window.extend_from_slice(&d[a..=b]);
+        out[k] = d[k] - median(&mut window);
+    }
+    out
 }
 
 /// Bands of the smoothed residual: runs at least 100 Hz wide more than 3 dB above its
@@ -562,6 +614,196 @@ fn has(model: &TwinModel, name: &str) -> bool {
     model.effects.iter().any(|(e, _)| e.name() == name)
 }
 
+/// A second impact train read off the residual's envelope lines.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SecondTrain {
+    /// Impact rate, Hz: least squares over the matched lines, refined on the PSD comb.
+    pub rate_hz: f64,
+    /// What the rate matches (`inner_race`, `outer_race`, `ball`, `shaft`, `unexplained`).
+    pub source: &'static str,
+    /// Harmonic numbers of the matched envelope lines.
+    pub harmonics: Vec<u32>,
+    /// The matched envelope lines.
+    pub lines: Vec<Component>,
+}
+
+/// Relative distance from the modelled defect rate (and its multiples and
+/// submultiples) inside which a harmonic family is that train's, not a second one.
+const OWN_RATE_EXCLUSION: f64 = 0.05;
+/// Highest harmonic of a second train matched in the envelope spectrum.
+const TRAIN_MAX_HARMONIC: f64 = 20.0;
+/// How far a train's rate may lie from a kinematic rate and still be named for it:
+/// rolling elements slip by 1–2 %, and the nominal speed is itself a percent off on
+/// many rigs.
+const NAMED_RATE_TOLERANCE: f64 = 0.03;
+
+/// Impacts the model lacks: residual envelope lines (not the modelled comb, not its
+/// load-zone sidebands) that form a harmonic family `k·r`, at least two lines one of
+/// which is the first or second harmonic (once-per-turn trains, named `shaft`, need
+/// three: the shaft's own 1× and 2× envelope lines come from modulation as often).
+/// The rate is named for the bearing's defect rates (the modelled one excluded) or
+/// the shaft rate within [`NAMED_RATE_TOLERANCE`], else `unexplained`.
+pub fn second_train(
+    analysis: &ResidualAnalysis,
+    model: &TwinModel,
+    cfg: &SignatureConfig,
+    meas_psd_db: &[f32],
+    span_s: f64,
+) -> Option<SecondTrain> {
+    let dfe = f64::from(cfg.fs_hz) / cfg.env_n as f64;
+    let freqs = &model.op.freqs;
+    let shaft = f64::from(freqs.shaft);
+    let own = model.fault.map(|loc| {
+        (
+            f64::from(freqs.impact_rate(loc)) * (1.0 + model.get("rate_factor").unwrap_or(0.0)),
+            f64::from(freqs.modulation_rate(loc)),
+        )
+    });
+    let modulates = has(model, "load_zone_modulation");
+    let tol = |f: f64| (1.5 * dfe).max(0.005 * f);
+    // Lines the modelled defect's modulation would put there (k·f_d ± m·f_mod, m·f_mod)
+    // are that effect's evidence, not a second train's.
+    let modulation_line = |f: f64| match own {
+        Some((fd, fm)) if fm > 0.0 && !modulates => {
+            (1..=2).any(|m| (f - f64::from(m) * fm).abs() < tol(f))
+                || (1..=5).any(|k| {
+                    (1..=2).any(|m| {
+                        let c = f64::from(k) * fd;
+                        (f - (c + f64::from(m) * fm)).abs() < tol(f)
+                            || (f - (c - f64::from(m) * fm)).abs() < tol(f)
+                    })
+                })
+        }
+        _ => false,
+    };
+    let lines: Vec<&Component> = analysis
+        .envelope
+        .iter()
+        .filter(|c| c.kind == "line" && c.f_hz >= 5.0)
+        .filter(|c| !on_model_comb(model, c, dfe, span_s) && !modulation_line(c.f_hz))
+        .collect();
+    if lines.len() < 2 {
+        return None;
+    }
+    // Candidate rates: every line as the first, second or third harmonic.
+    let mut best: Option<(Vec<usize>, Vec<u32>, f64, f64)> = None;
+    for l in &lines {
+        for m in 1..=3u32 {
+            let r0 = l.f_hz / f64::from(m);
+            if r0 < 3.0 * dfe {
+                continue;
+            }
+            let matched: Vec<(usize, u32)> = lines
+                .iter()
+                .enumerate()
+                .filter_map(|(i, c)| {
+                    let k = (c.f_hz / r0).round();
+                    ((1.0..=TRAIN_MAX_HARMONIC).contains(&k)
+                        && (c.f_hz - k * r0).abs() < tol(c.f_hz))
+                    .then_some((i, k as u32))
+                })
+                .collect();
+            let mut ks: Vec<u32> = matched.iter().map(|&(_, k)| k).collect();
+            ks.sort_unstable();
+            ks.dedup();
+            if ks.len() < 2 || ks[0] > 2 {
+                continue;
+            }
+            // Least-squares rate through the matched lines.
+            let (num, den) = matched.iter().fold((0.0, 0.0), |(n, d), &(i, k)| {
+                (n + lines[i].f_hz * f64::from(k), d + f64::from(k * k))
+            });
+            let r = num / den;
+            // Not the modelled comb's own rate, a multiple or a submultiple of it: within
+            // 5 % that is the modelled train misplaced (a drifting speed smears its lines
+            // off the comb), and no two defect rates of a bearing lie that close.
+            if let Some((fd, _)) = own {
+                let near = |a: f64, b: f64| (a - b).abs() < OWN_RATE_EXCLUSION * b;
+                if (1..=4).any(|j| near(r, fd * f64::from(j)) || near(r, fd / f64::from(j))) {
+                    continue;
+                }
+            }
+            let idx: Vec<usize> = matched.iter().map(|&(i, _)| i).collect();
+            // A harmonic sum normalised by the harmonic slots the rate has below the
+            // envelope's upper limit (a matched filter's SNR): a low rate collects many
+            // weak lines by chance in a line-dense spectrum, a real train its strong ones.
+            let slots = (f64::from(cfg.env_max_hz) / r)
+                .floor()
+                .clamp(1.0, TRAIN_MAX_HARMONIC);
+            let score = idx
+                .iter()
+                .map(|&i| f64::from(lines[i].excess_db))
+                .sum::<f64>()
+                / slots.sqrt();
+            if best.as_ref().is_none_or(|(_, _, _, s)| score > *s) {
+                best = Some((idx, ks, r, score));
+            }
+        }
+    }
+    let (idx, harmonics, r, _) = best?;
+    let mut named: Vec<(f64, &'static str)> = vec![
+        (f64::from(freqs.bpfo), "outer_race"),
+        (f64::from(freqs.bpfi), "inner_race"),
+        (f64::from(freqs.impact_rate(DefectLocation::Ball)), "ball"),
+        (f64::from(freqs.bsf), "ball"),
+        (shaft, "shaft"),
+    ];
+    if let Some(loc) = model.fault {
+        let own_rate = f64::from(freqs.impact_rate(loc));
+        named.retain(|(f, _)| (f - own_rate).abs() > 1e-6);
+        if loc == DefectLocation::Ball {
+            named.retain(|(_, n)| *n != "ball");
+        }
+    }
+    let source = named
+        .iter()
+        .filter(|(f, _)| (r / f - 1.0).abs() <= NAMED_RATE_TOLERANCE)
+        .min_by(|a, b| (r / a.0 - 1.0).abs().total_cmp(&(r / b.0 - 1.0).abs()))
+        .map_or("unexplained", |(_, n)| *n);
+    if source == "shaft" && harmonics.len() < 3 {
+        return None;
+    }
+    let rate_hz = refine_comb_rate(meas_psd_db, cfg, r, 0.004);
+    Some(SecondTrain {
+        rate_hz,
+        source,
+        harmonics,
+        lines: idx.iter().map(|&i| lines[i].clone()).collect(),
+    })
+}
+
+/// The rate within `±rel` of `rate` whose harmonic comb collects the most log power in
+/// the line-resolution PSD up to its upper limit (a periodic impact train puts lines at
+/// every k·rate), on a grid of 1e-5 relative steps.
+pub fn refine_comb_rate(psd_db: &[f32], cfg: &SignatureConfig, rate: f64, rel: f64) -> f64 {
+    let df = f64::from(cfg.fs_hz) / cfg.psd_n as f64;
+    let top = f64::from(cfg.psd_hi_hz);
+    let score = |r: f64| -> f64 {
+        let mut s = 0.0;
+        let mut k = 1.0f64;
+        while k * r < top {
+            let pos = k * r / df;
+            let i = pos.floor() as usize;
+            let frac = pos - i as f64;
+            if i + 1 < psd_db.len() {
+                s += f64::from(psd_db[i]) * (1.0 - frac) + f64::from(psd_db[i + 1]) * frac;
+            }
+            k += 1.0;
+        }
+        s / (k - 1.0).max(1.0)
+    };
+    let steps = (rel / 1e-5).round() as i64;
+    let mut best = (rate, f64::NEG_INFINITY);
+    for i in -steps..=steps {
+        let r = rate * (1.0 + i as f64 * 1e-5);
+        let sc = score(r);
+        if sc > best.1 {
+            best = (r, sc);
+        }
+    }
+    best.0
+}
+
 /// Trace the residual to candidate effects the model lacks (strongest first).
 pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candidate> {
     let model = ctx.model;
@@ -588,6 +830,21 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
         (1.0..=40.0).contains(&k) && (c.f_hz - k * shaft).abs() < tol(c.f_hz)
     };
     let mut used = vec![false; lines.len()];
+    // A second impact train puts lines at k·r in the PSD too: those are its evidence,
+    // not unexplained tones.
+    let train = if has(model, "second_impact_train") {
+        None
+    } else {
+        second_train(analysis, model, ctx.cfg, &ctx.meas_psd_db, span_s)
+    };
+    if let Some(t) = &train {
+        for (i, c) in lines.iter().enumerate() {
+            let k = (c.f_hz / t.rate_hz).round();
+            if k >= 1.0 && (c.f_hz - k * t.rate_hz).abs() < tol(c.f_hz) {
+                used[i] = true;
+            }
+        }
+    }
     if !has(model, "line_interference") {
         for mains in MAINS_HZ {
             let members: Vec<usize> = (0..lines.len())
@@ -768,6 +1025,38 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
                 check: Check::Lines,
             });
         }
+    }
+
+    // --- Envelope: a second impact train.
+    if let Some(t) = train {
+        let what = match t.source {
+            "unexplained" => "no rate of the bearing or the shaft: impacts from a source the model does not name (a neighbouring machine or bearing, a loose or struck part)".to_string(),
+            "shaft" => "once per turn: a rub or a loose part struck by the rotor".to_string(),
+            named => format!("the {named} defect rate: a second defect (compound fault)"),
+        };
+        let strength =
+            t.lines.iter().map(|c| c.excess_db).fold(0.0, f32::max) + t.harmonics.len() as f32;
+        let mut figures = serde_json::Map::new();
+        figures.insert("harmonics".into(), serde_json::json!(t.harmonics));
+        out.push(Candidate {
+            effect: Effect::SecondImpactTrain {
+                rate_hz: t.rate_hz,
+                source: t.source.to_string(),
+            },
+            evidence: Evidence {
+                summary: format!(
+                    "{} envelope line(s) the model lacks at harmonics {:?} of {:.2} Hz = {:.3} x shaft: {what}",
+                    t.lines.len(),
+                    t.harmonics,
+                    t.rate_hz,
+                    t.rate_hz / shaft
+                ),
+                components: t.lines,
+                figures,
+            },
+            strength,
+            check: Check::Lines,
+        });
     }
 
     // --- Washed-out defect comb: slip or speed drift.
