@@ -115,6 +115,76 @@ effect_tests! {
     unknown_impacts: Injected::UnknownImpacts,
 }
 
+/// A second impact train is named for what its rate matches and sized, whatever its
+/// strength: inner-race impacts at BPFI on an outer-race fault (a compound fault;
+/// generator: 24 N, realistic, or 8.4 N, weak, load-zone modulation 0.3 at the shaft
+/// rate) and impacts at 4.37 × shaft that no rate of the bearing names (24 N or 8.4 N).
+/// Tolerances: rate 0.2 % (the nominal speed's own), level 15 %, modulation depth ± 0.1,
+/// and the base parameters stay where they belong (f_n 3 kHz within 2 %, the outer-race
+/// impacts' 40 N within 5 %).
+#[test]
+fn a_second_impact_train_is_named_and_sized() {
+    let f = BearingGeometry::CWRU_6205_DE.frequencies(RPM / 60.0);
+    let cases = [
+        (
+            Injected::SecondDefect,
+            "inner_race",
+            f64::from(f.bpfi),
+            Some(0.3),
+        ),
+        (
+            Injected::UnknownImpacts,
+            "unexplained",
+            4.37 * f64::from(f.shaft),
+            None,
+        ),
+    ];
+    for (effect, source, rate, depth) in cases {
+        for (strength, level) in [(Strength::Realistic, 24.0), (Strength::Weak, 8.4)] {
+            let report = loop_on(effect, strength, 21);
+            let case = format!("{effect:?} {strength:?}");
+            let step = report
+                .steps
+                .first()
+                .unwrap_or_else(|| panic!("{case}: nothing added ({})", report.stop_reason));
+            match &step.detail {
+                Effect::SecondImpactTrain { rate_hz, source: s } => {
+                    assert_eq!(s, source, "{case}");
+                    assert!(
+                        (rate_hz / rate - 1.0).abs() < 0.002,
+                        "{case}: rate {rate_hz}"
+                    );
+                }
+                other => panic!("{case}: added {other:?}"),
+            }
+            let p = |k: &str| step.params[k].as_f64().unwrap_or(f64::NAN);
+            assert!(
+                (p("impact2_amp") / level - 1.0).abs() < 0.15,
+                "{case}: level {}",
+                p("impact2_amp")
+            );
+            if let Some(d) = depth {
+                assert!(
+                    (p("modulation2_depth") - d).abs() < 0.1,
+                    "{case}: depth {}",
+                    p("modulation2_depth")
+                );
+            }
+            assert!(
+                (p("fn_hz") / 3000.0 - 1.0).abs() < 0.02,
+                "{case}: f_n {}",
+                p("fn_hz")
+            );
+            assert!(
+                (p("impact_amp") / 40.0 - 1.0).abs() < 0.05,
+                "{case}: impacts {}",
+                p("impact_amp")
+            );
+            assert!(report.residual_noise_like, "{case}: {}", report.stop_reason);
+        }
+    }
+}
+
 /// The clean record plus one sinusoid of `amp_g` at `f_hz`, looped.
 fn loop_with_tone(f_hz: f64, amp_g: f64) -> LoopReport {
     let mut x = generate(Injected::None, Strength::Realistic, 4.0, 41).expect("generator");

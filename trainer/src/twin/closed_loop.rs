@@ -381,6 +381,59 @@ fn refine_rate(target_res: &Target, kinematic_hz: f32) -> f64 {
     super::residual::refine_comb_rate(&target_res.psd_db, &target_res.cfg, k, 0.03) / k - 1.0
 }
 
+/// A candidate's refit. When the model already carries a fitted speed drift (and the
+/// candidate is another effect), Levenberg–Marquardt runs first on the fit span
+/// (`n_coarse` samples, a third of the record) with the drift held, then polishes for
+/// three iterations over the whole record with everything free: the cost it ends
+/// with is the whole record's, as the current model's is, at about half the price of
+/// fitting every iteration over the whole record (CWRU 222: the loop took 19 s).
+fn refit_with_drift(
+    start: &TwinModel,
+    target: &Target,
+    cfg: &FitConfig,
+    n_coarse: usize,
+    drift_known: bool,
+) -> Result<FitResult, FitError> {
+    if !drift_known {
+        return fit(start, target, cfg);
+    }
+    let mut held = start.clone();
+    for p in held.params.iter_mut().filter(|p| p.name == "drift_per_s") {
+        p.step = 0.0;
+    }
+    let coarse = fit(
+        &held,
+        target,
+        &FitConfig {
+            n_sim: n_coarse,
+            ..*cfg
+        },
+    )?;
+    let polished = fit(
+        &start.with_theta(&coarse.model.theta()),
+        target,
+        &FitConfig {
+            max_iter: 3,
+            ..*cfg
+        },
+    )?;
+    Ok(FitResult {
+        evaluations: coarse.evaluations + polished.evaluations,
+        ..polished
+    })
+}
+
+/// How a candidate's refit fared.
+#[derive(Debug, Clone, Copy)]
+struct Verdict {
+    /// Kept.
+    passes: bool,
+    /// Its own evidence explained.
+    explained: bool,
+    /// The shown PSD and envelope errors do not rise on balance.
+    shown_ok: bool,
+}
+
 /// Run the whole loop.
 pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtifacts), LoopError> {
     let t0 = Instant::now();
@@ -518,75 +571,106 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
             tried.push(tried_key(&cand.effect));
             let line_amp =
                 |f: f64| excess_line_amplitude(&target_res.meas, &sim_sig_now, &sig_res, f);
-            let start = current.model.with_effect(cand.effect.clone(), &line_amp);
-            // A drifting speed builds up over the whole record: simulate all of it.
+            let mut start = current.model.with_effect(cand.effect.clone(), &line_amp);
+            // A noise level the fit drove towards zero sits where its logarithm has no
+            // gradient left, and cannot come back when the new effect takes over what it
+            // stood in for: this start lifts it to a twentieth of the record's RMS (the
+            // second start below keeps it where it was).
+            let floor = (0.05 * f64::from(target.meas.rms)).max(1e-12).ln();
+            if let Some(p) = start.params.iter_mut().find(|p| p.name == "ln_meas_noise") {
+                p.value = p.value.max(floor);
+            }
+            // A drifting speed builds up over the whole record: a model with a drift is
+            // simulated over all of it (three times the fit span).
             let drifts = start.effects.iter().any(|(e, _)| e.name() == "speed_drift");
             let trial_cfg = FitConfig {
                 n_sim: if drifts { n_res } else { fit_cfg.n_sim },
                 ..fit_cfg
             };
-            let trial = fit(&start, &target, &trial_cfg)?;
-            evaluations += trial.evaluations;
-            // A second start with the effect's strength parameters at a twentieth of
-            // their typical value, near "no effect" (the parameters are logarithmic, so
-            // "none" itself is out of reach): the refit keeps whichever ends lower, so a
-            // real effect is not lost to a poor starting point.
-            let mut weak = start.clone();
-            for p in weak.params.iter_mut().skip(current.model.params.len()) {
-                if p.name.starts_with("ln_fn") || p.name.starts_with("ln_zeta") {
-                    continue;
-                }
-                if p.name.starts_with("ln_") || p.name.starts_with("logit_") {
-                    p.value -= 20f64.ln();
-                } else {
-                    p.value /= 20.0;
-                }
-            }
-            let trial = match fit(&weak, &target, &trial_cfg) {
-                Ok(w) => {
-                    evaluations += w.evaluations;
-                    if w.cost < trial.cost {
-                        w
-                    } else {
-                        trial
-                    }
-                }
-                Err(_) => trial,
+            let drift_known = drifts && !matches!(cand.effect, Effect::SpeedDrift { .. });
+            let refit = |m: &TwinModel| {
+                refit_with_drift(m, &target, &trial_cfg, fit_cfg.n_sim, drift_known)
             };
-            // The effect must explain its own evidence (the statistic behind it halves,
-            // or the lines drop by 3 dB) and lower the global error by at least 1 %; or it
-            // must lower the global error by `min_relative_gain` on its own.
-            let (y_trial, trial_sig) = residual_of(&trial.model)?;
-            let gap = |y: &[f32], sig: &Signature| {
-                evidence_gap(
-                    &cand.check,
-                    &cand.evidence.components,
-                    x,
-                    y,
-                    &target_res.psd_db,
-                    &to_db(&sig.psd, &target_res.meas.psd),
-                    &target_res.env_db,
-                    &to_db(&sig.env, &target_res.meas.env),
-                    &sig_res,
-                )
-            };
-            let (gap_before, gap_after) = (gap(&y_sim, &sim_sig_now), gap(&y_trial, &trial_sig));
-            let explained = match cand.check {
-                Check::Lines => gap_after <= gap_before - 3.0,
-                _ => gap_after <= 0.5 * gap_before,
-            };
-            let local_ok = explained && trial.cost < current.cost * 0.99;
-            // And it must not buy that with the figures the report shows: the PSD and
+            // Whether a refit passes: the effect must explain its own evidence (the
+            // statistic behind it halves, or the lines drop by 3 dB) and lower the global
+            // error by at least 1 %, or lower it by `min_relative_gain` on its own; and
+            // it must not buy that with the figures the report shows: the PSD and
             // envelope errors may trade against each other (a second mode fixes the PSD
             // and moves the envelope), but their relative changes must not add up to a
-            // loss. The cost also weighs RMS and kurtosis, which an effect can match
-            // while it bends the spectra away from the measurement.
+            // loss (the cost also weighs RMS and kurtosis, which an effect can match
+            // while it bends the spectra away from the measurement). A second impact
+            // train must explain its own lines: a train of impacts adds broadband energy
+            // wherever the structure responds, so the cost alone can fall for a rate no
+            // line of the record carries.
+            let judge = |trial: &FitResult| -> Result<Verdict, LoopError> {
+                let (y_trial, trial_sig) = residual_of(&trial.model)?;
+                let gap = |y: &[f32], sig: &Signature| {
+                    evidence_gap(
+                        &cand.check,
+                        &cand.evidence.components,
+                        x,
+                        y,
+                        &target_res.psd_db,
+                        &to_db(&sig.psd, &target_res.meas.psd),
+                        &target_res.env_db,
+                        &to_db(&sig.env, &target_res.meas.env),
+                        &sig_res,
+                    )
+                };
+                let (before, after) = (gap(&y_sim, &sim_sig_now), gap(&y_trial, &trial_sig));
+                let explained = match cand.check {
+                    Check::Lines => after <= before - 3.0,
+                    _ => after <= 0.5 * before,
+                };
+                let local_ok = explained && trial.cost < current.cost * 0.99;
+                let (b, a) = (&current.figures, &trial.figures);
+                let rel = |after: f32, before: f32| (after - before) / before.max(1e-6);
+                let shown_ok = rel(a.psd_log_rmse_db, b.psd_log_rmse_db)
+                    + rel(a.envelope_rmse, b.envelope_rmse)
+                    <= 0.0;
+                let global_ok = trial.cost < current.cost * (1.0 - cfg.min_relative_gain)
+                    && (explained || !matches!(cand.effect, Effect::SecondImpactTrain { .. }));
+                Ok(Verdict {
+                    passes: shown_ok && (local_ok || global_ok),
+                    explained,
+                    shown_ok,
+                })
+            };
+            let mut trial = refit(&start)?;
+            evaluations += trial.evaluations;
+            let mut verdict = judge(&trial)?;
+            // A second start, when the first does not pass, with the effect's strength
+            // parameters at a twentieth of their typical value, near "no effect" (the
+            // parameters are logarithmic, so "none" itself is out of reach) and the
+            // model as it was: the lower end is judged, so a real effect is not lost to
+            // a poor starting point.
+            if !verdict.passes {
+                let mut weak = current.model.with_effect(cand.effect.clone(), &line_amp);
+                for p in weak.params.iter_mut().skip(current.model.params.len()) {
+                    if p.name.starts_with("ln_fn") || p.name.starts_with("ln_zeta") {
+                        continue;
+                    }
+                    if p.name.starts_with("ln_") || p.name.starts_with("logit_") {
+                        p.value -= 20f64.ln();
+                    } else {
+                        p.value /= 20.0;
+                    }
+                }
+                if let Ok(w) = refit(&weak) {
+                    evaluations += w.evaluations;
+                    if w.cost < trial.cost {
+                        verdict = judge(&w)?;
+                        trial = w;
+                    }
+                }
+            }
+            let Verdict {
+                passes,
+                explained,
+                shown_ok,
+            } = verdict;
             let (b, a) = (&current.figures, &trial.figures);
-            let rel = |after: f32, before: f32| (after - before) / before.max(1e-6);
-            let shown_ok = rel(a.psd_log_rmse_db, b.psd_log_rmse_db)
-                + rel(a.envelope_rmse, b.envelope_rmse)
-                <= 0.0;
-            if shown_ok && (local_ok || trial.cost < current.cost * (1.0 - cfg.min_relative_gain)) {
+            if passes {
                 steps.push(LoopStep {
                     effect: cand.effect.name().to_string(),
                     detail: cand.effect,

@@ -22,7 +22,7 @@
 //! | `line_interference` | output-side sinusoids at electrical lines | ln A per line |
 //! | `unexplained_periodic` | an output-side sinusoid at f | ln A |
 //! | `unexplained_band` | output-side band-limited noise (2nd-order resonator) at f, bandwidth B | ln level |
-//! | `second_impact_train` | a second impact train in the force at its own rate (a second defect, a rub, a struck part): same structure, its own level | ln A₂ |
+//! | `second_impact_train` | a second impact train in the force at its own rate (a second defect, a rub, a struck part): same structure, its own level; a second inner-race or ball defect modulated by its load zone (shaft or cage rate) | ln A₂, logit δ₂ (inner race, ball) |
 
 use crate::sim::G;
 use pumptwin_core::bearing::{DefectFrequencies, DefectLocation};
@@ -98,7 +98,7 @@ pub enum Effect {
         /// Impact rate, Hz (from the residual's envelope lines, refined on the PSD comb).
         rate_hz: f64,
         /// What the rate matches: `inner_race`, `outer_race`, `ball`, `shaft` (once per
-        /// turn) or `unexplained`.
+        /// turn), `shaft_synchronous` (k impacts per turn) or `unexplained`.
         source: String,
     },
     /// Output-side band noise nobody declared.
@@ -183,7 +183,11 @@ impl Effect {
                 } else {
                     20.0 * background
                 };
-                vec![("ln_impact2_amp".into(), start.max(1e-9).ln())]
+                let mut v = vec![("ln_impact2_amp".into(), start.max(1e-9).ln())];
+                if second_train_modulation_hz(self, 1.0, 1.0) > 0.0 {
+                    v.push(("logit_modulation2_depth".into(), 0.0));
+                }
+                v
             }
         }
     }
@@ -206,6 +210,21 @@ struct Start<'a> {
     impact_amp: f64,
     /// Background force σ_F, N.
     background: f64,
+}
+
+/// The load-zone modulation rate of a second impact train: a defect that turns with
+/// the shaft (inner race) or with the cage (ball) passes through the load zone once per
+/// turn, so its impacts are modulated at `shaft_hz` or `ftf_hz`; a stationary one
+/// (outer race) and trains of other sources are not (0).
+pub fn second_train_modulation_hz(e: &Effect, shaft_hz: f64, ftf_hz: f64) -> f64 {
+    match e {
+        Effect::SecondImpactTrain { source, .. } => match source.as_str() {
+            "inner_race" => shaft_hz,
+            "ball" => ftf_hz,
+            _ => 0.0,
+        },
+        _ => 0.0,
+    }
 }
 
 /// A named unconstrained parameter.
@@ -527,13 +546,19 @@ impl TwinModel {
                 // from elsewhere (a rub, a struck part) keeps its own clock.
                 let bearing_defect =
                     matches!(source.as_str(), "inner_race" | "outer_race" | "ball");
+                let mod_hz =
+                    second_train_modulation_hz(e, shaft, f64::from(self.op.freqs.ftf) * centre);
+                let depth = match p.get(1) {
+                    Some(q) if mod_hz > 0.0 => 1.0 / (1.0 + (-q.value).exp()),
+                    _ => 0.0,
+                };
                 let train = ImpactTrain {
                     amplitude: p[0].value.exp(),
                     rate_hz: centre * rate_hz,
                     sigma_s: IMPACT_SIGMA_S,
                     first_impact_s: 0.61 / rate_hz,
-                    modulation_depth: 0.0,
-                    modulation_hz: 0.0,
+                    modulation_depth: depth,
+                    modulation_hz: mod_hz,
                     jitter: if bearing_defect { jitter } else { 0.0 },
                     rate_drift_per_s: drift,
                 };

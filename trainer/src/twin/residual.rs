@@ -5,7 +5,7 @@
 //! residual `d(f) = measured − model`: `d > median(d) + max(6 dB, 5·1.4826·MAD(d))` (5σ over some 2000 bins).
 //! Narrow runs (≤ 4 bins, a Hann main lobe) are lines; wider runs are bands.
 
-use super::model::{Effect, TwinModel};
+use super::model::{second_train_modulation_hz, Effect, TwinModel};
 use super::signature::{to_db, welch, Signature, SignatureConfig};
 use pumptwin_core::bearing::DefectLocation;
 use pumptwin_core::features::{envelope, peak_frequency, EnvelopeBand};
@@ -258,26 +258,30 @@ pub fn on_model_comb(model: &TwinModel, c: &Component, df: f64, span_s: f64) -> 
     }
     let mut sideband = 0.0;
     let mut drift = 0.0;
-    let mut combs: Vec<(f64, bool)> = Vec::new();
+    // (rate, load-zone sideband spacing or 0) of every impact comb the model has.
+    let mut combs: Vec<(f64, f64)> = Vec::new();
+    let freqs = &model.op.freqs;
     for (e, first) in &model.effects {
         match e {
             Effect::LoadZoneModulation { mod_hz } => sideband = *mod_hz,
             Effect::SpeedDrift { .. } => drift = model.params[*first].value.abs(),
-            Effect::SecondImpactTrain { rate_hz, .. } => combs.push((*rate_hz, false)),
+            Effect::SecondImpactTrain { rate_hz, .. } => combs.push((
+                *rate_hz,
+                second_train_modulation_hz(e, f64::from(freqs.shaft), f64::from(freqs.ftf)),
+            )),
             _ => {}
         }
     }
     if let Some(loc) = model.fault {
-        let r = f64::from(model.op.freqs.impact_rate(loc))
-            * (1.0 + model.get("rate_factor").unwrap_or(0.0));
-        combs.push((r, true));
+        let r = f64::from(freqs.impact_rate(loc)) * (1.0 + model.get("rate_factor").unwrap_or(0.0));
+        combs.push((r, sideband));
     }
-    combs.iter().any(|&(r, modulated)| {
+    combs.iter().any(|&(r, side)| {
         (-2i32..=2).any(|m| {
-            if m != 0 && (sideband == 0.0 || !modulated) {
+            if m != 0 && side == 0.0 {
                 return false;
             }
-            let f = c.f_hz - f64::from(m) * sideband;
+            let f = c.f_hz - f64::from(m) * side;
             let k = (f / r).round();
             k >= 1.0
                 && (f - k * r).abs() <= 2.0 * df + 0.002 * c.f_hz + 0.5 * k * r * drift * span_s
@@ -619,7 +623,8 @@ fn has(model: &TwinModel, name: &str) -> bool {
 pub struct SecondTrain {
     /// Impact rate, Hz: least squares over the matched lines, refined on the PSD comb.
     pub rate_hz: f64,
-    /// What the rate matches (`inner_race`, `outer_race`, `ball`, `shaft`, `unexplained`).
+    /// What the rate matches (`inner_race`, `outer_race`, `ball`, `shaft`,
+    /// `shaft_synchronous` for an integer number of impacts per turn, `unexplained`).
     pub source: &'static str,
     /// Harmonic numbers of the matched envelope lines.
     pub harmonics: Vec<u32>,
@@ -659,12 +664,12 @@ pub fn second_train(
             f64::from(freqs.modulation_rate(loc)),
         )
     });
-    let modulates = has(model, "load_zone_modulation");
     let tol = |f: f64| (1.5 * dfe).max(0.005 * f);
-    // Lines the modelled defect's modulation would put there (k·f_d ± m·f_mod, m·f_mod)
-    // are that effect's evidence, not a second train's.
+    // Lines the modelled defect's modulation puts there (k·f_d ± m·f_mod, m·f_mod, m ≤ 2)
+    // are that effect's evidence, not a second train's — also once the model modulates:
+    // its load zone is a cosine, and a real one's second harmonic stays in the residual.
     let modulation_line = |f: f64| match own {
-        Some((fd, fm)) if fm > 0.0 && !modulates => {
+        Some((fd, fm)) if fm > 0.0 => {
             (1..=2).any(|m| (f - f64::from(m) * fm).abs() < tol(f))
                 || (1..=5).any(|k| {
                     (1..=2).any(|m| {
@@ -714,6 +719,22 @@ pub fn second_train(
                 (n + lines[i].f_hz * f64::from(k), d + f64::from(k * k))
             });
             let r = num / den;
+            // An impact train's strongest envelope line is its fundamental: it must be
+            // there, unless the model's own comb or its sidebands cover it (a
+            // line-dense residual otherwise offers chance families at low rates).
+            if ks[0] != 1 {
+                let at_r = Component {
+                    domain: "envelope",
+                    kind: "line",
+                    f_hz: r,
+                    width_hz: dfe,
+                    excess_db: 0.0,
+                    order: r / shaft,
+                };
+                if !(on_model_comb(model, &at_r, dfe, span_s) || modulation_line(r)) {
+                    continue;
+                }
+            }
             // Not the modelled comb's own rate, a multiple or a submultiple of it: within
             // 5 % that is the modelled train misplaced (a drifting speed smears its lines
             // off the comb), and no two defect rates of a bearing lie that close.
@@ -763,6 +784,17 @@ pub fn second_train(
     if source == "shaft" && harmonics.len() < 3 {
         return None;
     }
+    // An integer number of impacts per turn is tied to the rotor: a coupling's jaws or
+    // bolts, vanes or blades, a gear's teeth.
+    let order = r / shaft;
+    let source = if source == "unexplained"
+        && order.round() >= 2.0
+        && (order - order.round()).abs() <= 0.005 * order.round()
+    {
+        "shaft_synchronous"
+    } else {
+        source
+    };
     let rate_hz = refine_comb_rate(meas_psd_db, cfg, r, 0.004);
     Some(SecondTrain {
         rate_hz,
@@ -1032,6 +1064,7 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
         let what = match t.source {
             "unexplained" => "no rate of the bearing or the shaft: impacts from a source the model does not name (a neighbouring machine or bearing, a loose or struck part)".to_string(),
             "shaft" => "once per turn: a rub or a loose part struck by the rotor".to_string(),
+            "shaft_synchronous" => format!("{:.0} impacts per turn, tied to the rotor: a coupling's jaws or bolts, vanes or blades, a gear's teeth", t.rate_hz / shaft),
             named => format!("the {named} defect rate: a second defect (compound fault)"),
         };
         let strength =
