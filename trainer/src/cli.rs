@@ -897,10 +897,12 @@ const KNOWN_CWRU: &str = "
   the known acquisition interference, not a bearing effect.
 - **Normal record (97)**: 48 kHz with a different anti-alias chain; after decimation and
   the common band limit the loop should find no defect.
-- **Second impact trains**: each record carries one seeded defect, so none should be
-  kept. The envelope residuals of these records are dense with lines, and the loop
-  tries the harmonic families they offer (chance families at rates no part of the rig
-  has; the normal record's lines at 4 × and 8 × shaft as four impacts per turn): a
-  second train is kept only if it explains its own lines, and each of these says in
-  `rejected` why it was not.
+- **Second impact trains**: each record carries one seeded defect, so no second
+  bearing defect should be kept, and none is. The envelope residuals are dense with
+  lines and the loop tries the harmonic families they offer (chance families at rates
+  no part of the rig has); a second train is kept only if it explains its own lines,
+  and each tried one says in `rejected` why it was not. The one kept is on the normal
+  record: envelope lines at 4, 8 and 12 × the shaft rate, explained as four impacts
+  per turn (`shaft_synchronous`) — a healthy bearing has no rate there, so the source
+  is on the rotor side of the rig (the coupling, the dynamometer), not the bearing.
 ";

@@ -47,6 +47,8 @@ pub struct FitConfig {
     pub seed: u64,
     /// Levenberg–Marquardt iterations at most.
     pub max_iter: usize,
+    /// Relative cost gain below which an iteration ends the fit.
+    pub min_gain: f32,
 }
 
 /// A fitted model and how well it fits.
@@ -186,7 +188,7 @@ pub fn fit(start: &TwinModel, target: &Target, cfg: &FitConfig) -> Result<FitRes
                     r = rt;
                     cost = ct;
                     lambda = (lambda / 3.0).max(1e-7);
-                    improved = gain > 1e-5;
+                    improved = gain > cfg.min_gain;
                     break;
                 }
                 _ => lambda *= 4.0,

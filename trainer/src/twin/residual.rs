@@ -968,16 +968,19 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
     // healthy bearing), else an unexplained band.
     let rate = model.fault.map(|loc| model.op.freqs.impact_rate(loc));
     let modes = model.mode_frequencies();
-    if let Some(b) = analysis
+    let mut bands: Vec<&Component> = analysis
         .psd
         .iter()
         .filter(|c| c.kind == "band")
         // A band on a mode the model already has is that mode's misfit, not a new one.
         .filter(|c| modes.iter().all(|f| (c.f_hz - f).abs() > 0.12 * f))
-        .max_by(|a, b| {
-            (a.excess_db * a.width_hz as f32).total_cmp(&(b.excess_db * b.width_hz as f32))
-        })
-    {
+        .collect();
+    bands.sort_by(|a, b| {
+        (b.excess_db * b.width_hz as f32).total_cmp(&(a.excess_db * a.width_hz as f32))
+    });
+    // The two largest: once the largest band's candidate has been tried and rejected,
+    // the next one still gets its turn.
+    for b in bands.into_iter().take(2) {
         let (lo, hi) = ((b.f_hz - b.width_hz) as f32, (b.f_hz + b.width_hz) as f32);
         let carried = rate.map(|r| band_carries_defect(ctx.x, fs, lo, hi, r));
         let resonance_like = b.width_hz < 0.3 * b.f_hz;
