@@ -21,6 +21,7 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+use crate::data::record::sha256_hex;
 use anyhow::{bail, ensure, Context, Result};
 use burn::module::Module;
 use burn::tensor::{Device, Tensor};
@@ -35,7 +36,6 @@ use pumptwin_core::model_file::{self, GraphParts, ModelFile, Name, Text};
 use pumptwin_core::quant::{AttentionPoolF32, GatLayerF32, GruCellF32, LinearF32};
 use pumptwin_core::simulator::BearingParams;
 use serde::{Deserialize, Serialize};
-use sha2::{Digest, Sha256};
 
 use crate::dataset::{
     Dataset, IndicatorNorm, ProtocolData, FEATURES, INDICATOR_NAMES, NODES, N_INDICATORS, N_NODES,
@@ -468,14 +468,6 @@ pub struct Parity {
     pub max_relative_logit_diff: f32,
     /// Max |burn logit − core float reference logit| (the weight mapping's check).
     pub max_reference_diff: f32,
-}
-
-fn sha256_hex(bytes: &[u8]) -> String {
-    let digest = Sha256::digest(bytes);
-    digest.iter().fold(String::new(), |mut s, b| {
-        let _ = write!(s, "{b:02x}");
-        s
-    })
 }
 
 fn name(s: &str) -> Result<Name> {

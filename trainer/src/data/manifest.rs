@@ -100,6 +100,10 @@ pub struct ManifestEntry {
     pub fs_hz: f32,
     /// Samples per channel as listed, if given (a cross-check; the file is the truth).
     pub samples_per_channel: Option<usize>,
+    /// SHA-256 of the file as listed (64 lower-case hex digits), if given: a file that
+    /// does not match it is refused when loaded, so a swapped or damaged `.mat` is not
+    /// read as the record its name says.
+    pub sha256: Option<String>,
 }
 
 impl ManifestEntry {
@@ -237,6 +241,7 @@ pub fn parse_manifest(text: &str, dir: &Path) -> Result<Vec<ManifestEntry>, Mani
     let c_rpm = col("rpm_recorded")?;
     let c_fs = col("fs_hz")?;
     let c_samples = col("samples_per_channel").ok();
+    let c_sha = col("sha256").ok();
 
     let mut entries = Vec::new();
     for (line, text) in lines {
@@ -308,6 +313,13 @@ pub fn parse_manifest(text: &str, dir: &Path) -> Result<Vec<ManifestEntry>, Mani
                     .map_err(|e| bad("samples_per_channel", v, format!("{e}")))?,
             ),
         };
+        let sha256 = match c_sha.map(field) {
+            None | Some("") => None,
+            Some(v) if v.len() == 64 && v.bytes().all(|b| b.is_ascii_hexdigit()) => {
+                Some(v.to_ascii_lowercase())
+            }
+            Some(v) => return Err(bad("sha256", v, "must be 64 hex digits".into())),
+        };
         entries.push(ManifestEntry {
             file: PathBuf::from(file),
             path: dir.join(file),
@@ -319,6 +331,7 @@ pub fn parse_manifest(text: &str, dir: &Path) -> Result<Vec<ManifestEntry>, Mani
             rpm_recorded,
             fs_hz,
             samples_per_channel,
+            sha256,
         });
     }
     Ok(entries)
@@ -357,6 +370,32 @@ mod tests {
         assert_eq!(ClassScheme::FaultType.label(&entries[3]), Some(1));
         assert_eq!(entries[2].fs_hz, 48_000.0);
         assert_eq!(entries[3].rpm_recorded, None);
+        assert_eq!(entries[0].sha256, None, "no sha256 column");
+    }
+
+    #[test]
+    fn reads_and_checks_the_sha256_column() {
+        let header = "file\tcwru_file_no\tcwru_label\tfault_type\tfault_size_in\tload_hp\trpm_recorded\tfs_hz\tsha256";
+        let row = |sha: &str| {
+            format!("{header}\n12k_DE/105.mat\t105\tIR007_0\tIR\t0.007\t0\t1797\t12000\t{sha}\n")
+        };
+        let hex = "AB".repeat(32);
+        let e = parse_manifest(&row(&hex), Path::new(".")).expect("valid sha256");
+        assert_eq!(e[0].sha256.as_deref(), Some("ab".repeat(32).as_str()));
+        let e = parse_manifest(&row(""), Path::new(".")).expect("empty sha256");
+        assert_eq!(e[0].sha256, None);
+        for bad in ["abc", &"zz".repeat(32)] {
+            assert!(
+                matches!(
+                    parse_manifest(&row(bad), Path::new(".")),
+                    Err(ManifestError::BadField {
+                        column: "sha256",
+                        ..
+                    })
+                ),
+                "{bad}"
+            );
+        }
     }
 
     #[test]

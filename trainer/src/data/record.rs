@@ -502,6 +502,45 @@ pub(crate) mod tests {
         dir
     }
 
+    /// A manifest that lists a file's SHA-256 refuses the file once it changes (a
+    /// swapped or damaged `.mat` is not read as the record its name says), and loads it
+    /// while it matches; without the column nothing is checked.
+    #[test]
+    fn a_file_that_is_not_the_listed_one_is_refused() {
+        let dir = scratch_dir("sha");
+        let signal: Vec<f64> = (0..4096).map(|i| (f64::from(i) * 0.3).sin()).collect();
+        let bytes = double_vectors(&[
+            ("X105_DE_time", &signal),
+            ("X105_FE_time", &signal),
+            ("X105RPM", &[1797.0]),
+        ]);
+        std::fs::write(dir.join("105.mat"), &bytes).expect("write");
+        let header = "file\tcwru_file_no\tcwru_label\tfault_type\tfault_size_in\tload_hp\trpm_recorded\tfs_hz\tsha256";
+        let entry = |sha: &str| {
+            let text =
+                format!("{header}\n105.mat\t105\tIR007_0\tIR\t0.007\t0\t1797\t12000\t{sha}\n");
+            parse_manifest(&text, &dir).expect("manifest").remove(0)
+        };
+        let listed = entry(&sha256_hex(&bytes));
+        assert_eq!(load_entry(&listed).expect("the listed file").len(), 4096);
+        assert!(load_entry(&entry("")).is_ok(), "no checksum listed");
+        let mut damaged = bytes.clone();
+        let last = damaged.len() - 1;
+        damaged[last] ^= 1;
+        std::fs::write(dir.join("105.mat"), &damaged).expect("write");
+        match load_entry(&listed) {
+            Err(EntryError::Checksum { expected, got, .. }) => {
+                assert_eq!(expected, sha256_hex(&bytes));
+                assert_eq!(got, sha256_hex(&damaged));
+            }
+            other => panic!(
+                "a damaged file was not refused: {:?}",
+                other.map(|r| r.len())
+            ),
+        }
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
     fn mat(vars: &[(&str, &[f64])]) -> MatFile {
         read_mat(&double_vectors(vars)).expect("test file")
     }
@@ -663,6 +702,21 @@ pub enum EntryError {
         #[source]
         source: Box<DataError>,
     },
+    /// The file is not the one the manifest lists (its SHA-256 differs).
+    #[error(
+        "{label} ({}): SHA-256 {got} is not the manifest's {expected}: a different or damaged file",
+        path.display()
+    )]
+    Checksum {
+        /// CWRU label.
+        label: String,
+        /// File path.
+        path: PathBuf,
+        /// SHA-256 the manifest lists.
+        expected: String,
+        /// SHA-256 of the file.
+        got: String,
+    },
     /// The record cannot be brought to the model rate.
     #[error("record {label} cannot be brought to the model rate")]
     Preprocess {
@@ -684,9 +738,40 @@ impl EntryError {
     }
 }
 
+/// Lower-case hex SHA-256 of `bytes`.
+pub fn sha256_hex(bytes: &[u8]) -> String {
+    use sha2::{Digest, Sha256};
+    use std::fmt::Write as _;
+    Sha256::digest(bytes)
+        .iter()
+        .fold(String::new(), |mut s, b| {
+            let _ = write!(s, "{b:02x}");
+            s
+        })
+}
+
 /// Load the CWRU record a manifest entry lists: variables picked by its file number,
 /// rate and recorded speed from the manifest.
 pub fn load_entry(entry: &ManifestEntry) -> Result<Recording, EntryError> {
+    if let Some(expected) = &entry.sha256 {
+        let bytes = std::fs::read(&entry.path).map_err(|source| EntryError::Record {
+            label: entry.label.clone(),
+            path: entry.path.clone(),
+            source: Box::new(DataError::Io {
+                path: entry.path.clone(),
+                source,
+            }),
+        })?;
+        let got = sha256_hex(&bytes);
+        if &got != expected {
+            return Err(EntryError::Checksum {
+                label: entry.label.clone(),
+                path: entry.path.clone(),
+                expected: expected.clone(),
+                got,
+            });
+        }
+    }
     load_cwru_mat(
         &entry.path,
         Some(entry.file_number),
