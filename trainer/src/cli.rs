@@ -658,6 +658,22 @@ fn run_twin_loop(args: &TwinLoopArgs) -> Result<()> {
         "--unit-scale {}: must be finite and > 0 (g per unit of the samples)",
         args.unit_scale
     );
+    let is_csv = args
+        .record
+        .input
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("csv"));
+    if args.unit_scale != 1.0 && is_csv {
+        let declared = crate::data::csv::declares_sensor_units(&args.record.input)
+            .with_context(|| format!("read {}", args.record.input.display()))?;
+        ensure!(
+            !declared,
+            "--unit-scale {}: {} declares its sensors' units in the header and is read in g \
+             already; the scale would apply twice",
+            args.unit_scale,
+            args.record.input.display()
+        );
+    }
     let input = LoopInput {
         signal: channel
             .samples

@@ -18,6 +18,12 @@
 //! would both become the same sensor). A header whose cells are all numbers is a
 //! missing header, not channel names.
 //!
+//! A sensor column may declare its unit at the end of its name, in brackets or
+//! parentheses (`DE [g]`, `FE (m/s^2)`, `BA [mg]`, `DE_acc[m/s²]`): the samples are
+//! converted to g, the unit every model and the twin work in (g, mg, m/s², mm/s²;
+//! 1 g = 9.80665 m/s²). A sensor column with any other unit (`DE [V]`) is an error, as
+//! it is not an acceleration; without a unit the samples are taken as g.
+//!
 //! A CSV carries no sampling rate or shaft speed, and guessing either would silently
 //! distort every frequency feature, so both come from the caller (CLI flags); there
 //! are no defaults. Every cell must be a finite number: a blank, text, NaN or infinite
@@ -160,7 +166,7 @@ pub fn parse_csv(
             ),
         });
     }
-    let names = sensor_names(names);
+    let (names, scales) = units_to_g(names)?;
     let mut columns: Vec<Vec<f32>> = vec![Vec::new(); names.len()];
     for (line, text) in lines {
         let row = cells(text, delimiter);
@@ -172,13 +178,18 @@ pub fn parse_csv(
                 delimiter: delimiter.unwrap_or(','),
             });
         }
-        for ((cell, column), name) in row.into_iter().zip(columns.iter_mut()).zip(&names) {
+        for (((cell, column), name), scale) in row
+            .into_iter()
+            .zip(columns.iter_mut())
+            .zip(&names)
+            .zip(&scales)
+        {
             let value: f64 = cell.parse().map_err(|_| CsvError::NotANumber {
                 line,
                 column: name.clone(),
                 cell: cell.to_string(),
             })?;
-            let value = value as f32;
+            let value = (value * scale) as f32;
             if !value.is_finite() {
                 return Err(CsvError::NonFinite {
                     line,
@@ -202,6 +213,112 @@ pub fn parse_csv(
             .map(|(name, samples)| Channel { name, samples })
             .collect(),
     })
+}
+
+/// Standard gravity, m/s² per g.
+const G_M_PER_S2: f64 = 9.806_65;
+
+/// A column name split into its name and the unit it declares at its end, in
+/// brackets or parentheses (`DE [m/s^2]` → `DE`, `m/s^2`).
+fn split_unit(name: &str) -> (&str, Option<&str>) {
+    let t = name.trim_end();
+    for (open, close) in [('[', ']'), ('(', ')')] {
+        if let Some(inner) = t.strip_suffix(close) {
+            if let Some(at) = inner.rfind(open) {
+                let base = inner[..at].trim_end_matches([' ', '_', '-', '.']);
+                if !base.is_empty() {
+                    return (base, Some(inner[at + 1..].trim()));
+                }
+            }
+        }
+    }
+    (t, None)
+}
+
+/// g per unit of an acceleration unit (`g`, `mg`, `m/s²` in its usual spellings,
+/// `mm/s²`), `None` for anything else.
+fn g_per_unit(unit: &str) -> Option<f64> {
+    let u: String = unit
+        .chars()
+        .filter(|c| !matches!(c, ' ' | '^' | '*' | '·' | '.'))
+        .map(|c| {
+            if c == '²' {
+                '2'
+            } else {
+                c.to_ascii_lowercase()
+            }
+        })
+        .collect();
+    match u.as_str() {
+        "g" | "gn" => Some(1.0),
+        "mg" => Some(1e-3),
+        "m/s2" | "ms-2" | "m/s/s" => Some(1.0 / G_M_PER_S2),
+        "mm/s2" | "mms-2" => Some(1e-3 / G_M_PER_S2),
+        _ => None,
+    }
+}
+
+/// Sensor names (see [`sensor_names`]) and, per column, the factor that brings its
+/// samples to g: from the unit a sensor column declares, 1 without one. Columns that
+/// are no sensor keep their unit in their name and a factor of 1.
+fn units_to_g(names: Vec<String>) -> Result<(Vec<String>, Vec<f64>), CsvError> {
+    let split: Vec<(String, Option<String>)> = names
+        .iter()
+        .map(|n| {
+            let (base, unit) = split_unit(n);
+            (base.to_string(), unit.map(str::to_string))
+        })
+        .collect();
+    let mapped = sensor_names(split.iter().map(|(b, _)| b.clone()).collect());
+    let mut out_names = Vec::with_capacity(names.len());
+    let mut scales = Vec::with_capacity(names.len());
+    for ((full, (_, unit)), name) in names.iter().zip(&split).zip(mapped) {
+        let is_sensor = ["DE", "FE", "BA"].contains(&name.as_str());
+        match (is_sensor, unit) {
+            (true, Some(u)) => {
+                let scale = g_per_unit(u).ok_or_else(|| CsvError::BadHeader {
+                    reason: format!(
+                        "column `{full}`: unit `{u}` is not an acceleration (g, mg, m/s², mm/s²)"
+                    ),
+                })?;
+                out_names.push(name);
+                scales.push(scale);
+            }
+            (true, None) => {
+                out_names.push(name);
+                scales.push(1.0);
+            }
+            (false, _) => {
+                out_names.push(full.clone());
+                scales.push(1.0);
+            }
+        }
+    }
+    Ok((out_names, scales))
+}
+
+/// Whether the CSV at `path` declares the unit of one of its sensor columns (the
+/// samples are then converted to g on reading, and a scale given besides would apply
+/// twice).
+pub fn declares_sensor_units(path: &Path) -> std::io::Result<bool> {
+    let text = std::fs::read_to_string(path)?;
+    let Some(header) = text
+        .lines()
+        .map(str::trim)
+        .find(|l| !l.is_empty() && !l.starts_with('#'))
+    else {
+        return Ok(false);
+    };
+    let header = header.trim_start_matches('\u{feff}');
+    let names: Vec<String> = cells(header, detect_delimiter(header))
+        .into_iter()
+        .map(|c| c.trim_matches('"').to_string())
+        .collect();
+    let bases: Vec<String> = names.iter().map(|n| split_unit(n).0.to_string()).collect();
+    Ok(names
+        .iter()
+        .zip(sensor_names(bases))
+        .any(|(n, s)| ["DE", "FE", "BA"].contains(&s.as_str()) && split_unit(n).1.is_some()))
 }
 
 /// The sensor each column names (module docs), or its own name.
@@ -354,6 +471,48 @@ mod tests {
         let rec = parse_csv("DE,de_time\n1,2\n", "r", 12_000.0, None).expect("parsed");
         let names: Vec<&str> = rec.channels.iter().map(|c| c.name.as_str()).collect();
         assert_eq!(names, ["DE", "de_time"]);
+    }
+
+    #[test]
+    fn declared_units_are_converted_to_g() {
+        let rec = parse_csv(
+            "DE [m/s^2],FE (mg),BA_acc[g],temp [C]\n9.80665,1000,0.5,20\n-19.6133,-500,1,21\n",
+            "u",
+            12_000.0,
+            None,
+        )
+        .expect("units");
+        let ch = |n: &str| rec.channel(n).expect(n).samples.clone();
+        assert!((ch("DE")[0] - 1.0).abs() < 1e-6 && (ch("DE")[1] + 2.0).abs() < 1e-6);
+        assert!((ch("FE")[0] - 1.0).abs() < 1e-6 && (ch("FE")[1] + 0.5).abs() < 1e-6);
+        assert_eq!(ch("BA"), vec![0.5, 1.0]);
+        assert_eq!(
+            ch("temp [C]"),
+            vec![20.0, 21.0],
+            "not a sensor: kept as read"
+        );
+        for spelling in ["m/s²", "m s^-2", "ms-2", "m·s^-2"] {
+            let text = format!("DE [{spelling}]\n9.80665\n");
+            let r = parse_csv(&text, "u", 1.0, None).expect(spelling);
+            assert!(
+                (r.channel("DE").expect("DE").samples[0] - 1.0).abs() < 1e-6,
+                "{spelling}"
+            );
+        }
+        let err = parse_csv("DE [V]\n1\n", "u", 1.0, None).expect_err("volts");
+        assert!(err.to_string().contains("not an acceleration"), "{err}");
+        // What `twin loop` asks before it applies `--unit-scale` on top.
+        let dir = crate::data::record::tests::scratch_dir("csv-units");
+        for (header, declared) in [("# c\nDE [mg],temp\n", true), ("DE,temp [C]\n", false)] {
+            let path = dir.join("r.csv");
+            std::fs::write(&path, format!("{header}1,2\n")).expect("write");
+            assert_eq!(
+                declares_sensor_units(&path).expect("read"),
+                declared,
+                "{header}"
+            );
+        }
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]
