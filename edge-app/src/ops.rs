@@ -124,6 +124,7 @@ pub fn render(m: &Metrics) -> String {
         ("duplicate", h.duplicate),
         ("out_of_sequence", h.out_of_sequence),
         ("unknown_id", h.unknown_id),
+        ("other_interface", h.other_interface),
         ("malformed", h.malformed),
         ("late", h.late),
         ("remote", h.remote),

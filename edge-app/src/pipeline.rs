@@ -10,16 +10,24 @@
 //! | `remote` | a remote request | none |
 //! | `error_frames` | an error frame | none |
 //! | `unknown_id` | an identifier the sensor map does not name | none |
+//! | `other_interface` | a channel's identifier from another interface than its first frame's | dropped |
 //! | `malformed` | a payload that does not fit its channel's layout | dropped |
 //! | `late` | timestamp earlier than the previous frame's (any id) | dropped |
 //! | `duplicate` | the channel's last stored frame again: same counter, same payload | dropped |
 //! | `out_of_sequence` | sequence counter ≠ expected, or a gap by the clock | **used** |
 //! | `used` | everything else | used |
 //!
-//! so `frames_total = used + duplicate + out_of_sequence + unknown_id + malformed + late
-//! + remote + error_frames` ([`Health::frames_classified`]). Not frames, and so outside the sum:
+//! so `frames_total = used + duplicate + out_of_sequence + unknown_id + other_interface
+//! + malformed + late + remote + error_frames` ([`Health::frames_classified`]). Not frames, and so outside the sum:
 //! `lost_frames` (frames a counter jump says never arrived), `bad_lines` (log lines
 //! that are not frames), `realignments`, `windows`, `degraded_windows`.
+//!
+//! Why another interface's frame is dropped: a log (or a bridge) that merges two buses
+//! can carry the same identifier from two machines; the sensor map names an identifier,
+//! not a bus, so a channel belongs to the interface its first frame came on, and frames
+//! with its identifier from any other are counted and kept out of its samples rather
+//! than interleaved into one stream. Frames without an interface name (`ID#DATA`
+//! lines) match any.
 //!
 //! Why a duplicate is dropped: it holds the same sample instants as the frame before
 //! it (a bus retransmission, a logger or bridge that forwards a frame twice), so
@@ -144,6 +152,9 @@ pub struct Health {
     pub out_of_sequence: u64,
     /// Frames with an identifier the sensor map does not name.
     pub unknown_id: u64,
+    /// Frames with a channel's identifier from another interface than the channel's
+    /// first frame (dropped).
+    pub other_interface: u64,
     /// Frames whose payload does not fit the layout.
     pub malformed: u64,
     /// Frames with a timestamp before the previous frame's (dropped).
@@ -171,6 +182,7 @@ impl Health {
             + self.duplicate
             + self.out_of_sequence
             + self.unknown_id
+            + self.other_interface
             + self.malformed
             + self.late
             + self.remote
@@ -182,7 +194,8 @@ impl std::fmt::Display for Health {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "{} frames: {} used, {} duplicate, {} out of sequence ({} lost), {} unknown id, {} malformed, \
+            "{} frames: {} used, {} duplicate, {} out of sequence ({} lost), {} unknown id, \
+             {} from another interface, {} malformed, \
              {} late, {} remote, {} error frames; {} bad lines; {} windows ({} degraded); \
              {} channel re-alignments",
             self.frames_total,
@@ -191,6 +204,7 @@ impl std::fmt::Display for Health {
             self.out_of_sequence,
             self.lost_frames,
             self.unknown_id,
+            self.other_interface,
             self.malformed,
             self.late,
             self.remote,
@@ -225,6 +239,12 @@ pub enum Disposition {
     },
     /// No channel has this identifier.
     UnknownId,
+    /// A channel's identifier from another interface than the channel's first frame;
+    /// dropped.
+    OtherInterface {
+        /// Channel index.
+        channel: usize,
+    },
     /// The payload does not fit the channel's layout.
     Malformed {
         /// Channel index.
@@ -428,6 +448,8 @@ struct ChannelState {
     last_payload: Vec<u8>,
     /// Reception time of the channel's last frame that was not late, µs.
     last_ts_us: Option<u64>,
+    /// Interface of the channel's first frame that named one.
+    iface: Option<heapless::String<16>>,
     pending_gap: bool,
 }
 
@@ -484,6 +506,7 @@ impl Pipeline {
                     expected_seq: None,
                     last_payload: Vec::new(),
                     last_ts_us: None,
+                    iface: None,
                     pending_gap: false,
                 })
             })
@@ -625,6 +648,10 @@ impl Pipeline {
                 h.unknown_id += 1;
                 None
             }
+            Disposition::OtherInterface { .. } => {
+                h.other_interface += 1;
+                None
+            }
             Disposition::Slow => {
                 h.used += 1;
                 None
@@ -674,6 +701,15 @@ impl Pipeline {
             return Disposition::UnknownId;
         };
         let ch = &mut self.channels[channel];
+        if !frame.iface.is_empty() {
+            match &ch.iface {
+                Some(own) if *own != frame.iface => {
+                    return Disposition::OtherInterface { channel };
+                }
+                Some(_) => {}
+                None => ch.iface = Some(frame.iface.clone()),
+            }
+        }
         let seq = match ch.spec.decode(&frame.data, frame.fd, &mut self.decoded) {
             Ok(seq) => seq,
             Err(error) => return Disposition::Malformed { channel, error },

@@ -24,7 +24,8 @@
 //!                                      the latest on-edge Θ update (eq. 10) and the window
 //!                                      it ran on (an earlier one: it runs after each line)
 //!   "diagnosis": …,                    only with a Diagnoser (`--model`)
-//!   "health": {"frames_total", "used", "duplicate", "out_of_sequence", "unknown_id", "malformed",
+//!   "health": {"frames_total", "used", "duplicate", "out_of_sequence", "unknown_id",
+//!              "other_interface", "malformed",
 //!              "late", "remote", "error_frames", "lost_frames", "bad_lines",
 //!              "realignments", "windows", "degraded_windows"}
 //! }

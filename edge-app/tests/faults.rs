@@ -204,6 +204,43 @@ fn duplicated_frames_are_dropped_and_change_nothing() {
     }
 }
 
+/// A log that merges two buses carries the DE identifier from a second machine on
+/// `can1`: the channel belongs to the interface of its first frame (`can0`), the other
+/// machine's frames are counted as `other_interface` and kept out of its samples, and
+/// the windows are those of the run without them.
+#[test]
+fn the_same_id_from_another_interface_is_kept_apart() {
+    let mut merged = Vec::new();
+    let mut foreign = 0u64;
+    for f in clean(24_000) {
+        let is_de = f.id == DE;
+        merged.push(f.clone());
+        if is_de {
+            let mut other = f;
+            other.iface = "can1".try_into().unwrap();
+            // Another machine's samples: the same counter, other values.
+            for b in other.data.iter_mut().skip(1) {
+                *b = b.wrapping_add(17);
+            }
+            merged.push(other);
+            foreign += 1;
+        }
+    }
+    let total = merged.len() as u64;
+    let (lines, h) = run_frames(MAP_DE_FE, merged);
+    let (clean_lines, clean_h) = run_frames(MAP_DE_FE, clean(24_000));
+    assert_adds_up(&h);
+    assert_eq!(h.frames_total, total);
+    assert_eq!(h.other_interface, foreign);
+    assert_eq!((h.duplicate, h.out_of_sequence, h.lost_frames), (0, 0, 0));
+    assert_eq!(h.used, clean_h.used);
+    assert_eq!(h.degraded_windows, 0);
+    assert_eq!(lines.len(), clean_lines.len());
+    for (a, b) in lines.iter().zip(&clean_lines) {
+        assert_eq!(a["channels"], b["channels"]);
+    }
+}
+
 /// Two DE frames swapped on the bus. (a) Reception times stay in order (the frames
 /// were reordered before the receiver stamped them): the three frames from the swap on
 /// are each `out_of_sequence` and the forward jumps add 2 to `lost_frames` though
@@ -436,11 +473,13 @@ fn a_model_file_swapped_while_running_changes_nothing() {
         assert!(w["diagnosis"]["class"].is_string(), "{w}");
     }
     let c = final_counts(&stderr);
+    // total = used + duplicate + out of sequence + unknown id + other interface
+    // + malformed + late + remote + error frames (lost frames, c[4], are not frames).
     assert_eq!(
         c[0],
-        c[1] + c[2] + c[3] + c[5] + c[6] + c[7] + c[8] + c[9],
+        c[1] + c[2] + c[3] + c[5] + c[6] + c[7] + c[8] + c[9] + c[10],
         "{stderr}"
     );
-    assert_eq!(c[11], lines.len() as u64);
+    assert_eq!(c[12], lines.len() as u64);
     let _ = std::fs::remove_dir_all(&dir);
 }
