@@ -131,21 +131,9 @@ pub fn parse_csv(
             value: r,
         });
     }
-    let mut lines = text
-        .lines()
-        .enumerate()
-        .map(|(i, l)| (i + 1, l.trim_end_matches('\r')))
-        .filter(|(_, l)| {
-            let t = l.trim_start();
-            !t.is_empty() && !t.starts_with('#')
-        });
+    let mut lines = content_lines(text);
     let (_, header) = lines.next().ok_or(CsvError::MissingHeader)?;
-    let header = header.trim_start_matches('\u{feff}');
-    let delimiter = detect_delimiter(header);
-    let names: Vec<String> = cells(header, delimiter)
-        .into_iter()
-        .map(|c| c.trim_matches('"').to_string())
-        .collect();
+    let (delimiter, names) = header_names(header);
     for (i, n) in names.iter().enumerate() {
         if n.is_empty() {
             return Err(CsvError::BadHeader {
@@ -215,6 +203,32 @@ pub fn parse_csv(
     })
 }
 
+/// The lines that are not blank or comments, with their 1-based numbers.
+fn content_lines(text: &str) -> impl Iterator<Item = (usize, &str)> {
+    text.lines()
+        .enumerate()
+        .map(|(i, l)| (i + 1, l.trim_end_matches('\r')))
+        .filter(|(_, l)| {
+            let t = l.trim_start();
+            !t.is_empty() && !t.starts_with('#')
+        })
+}
+
+/// The header row's delimiter and column names (a leading byte-order mark and
+/// quotes around names removed).
+fn header_names(header: &str) -> (Option<char>, Vec<String>) {
+    let header = header.trim_start_matches('\u{feff}');
+    let delimiter = detect_delimiter(header);
+    let names = cells(header, delimiter)
+        .into_iter()
+        .map(|c| c.trim_matches('"').to_string())
+        .collect();
+    (delimiter, names)
+}
+
+/// The sensor names a column may carry (module docs).
+const SENSORS: [&str; 3] = ["DE", "FE", "BA"];
+
 /// Standard gravity, m/s² per g.
 const G_M_PER_S2: f64 = 9.806_65;
 
@@ -273,7 +287,7 @@ fn units_to_g(names: Vec<String>) -> Result<(Vec<String>, Vec<f64>), CsvError> {
     let mut out_names = Vec::with_capacity(names.len());
     let mut scales = Vec::with_capacity(names.len());
     for ((full, (_, unit)), name) in names.iter().zip(&split).zip(mapped) {
-        let is_sensor = ["DE", "FE", "BA"].contains(&name.as_str());
+        let is_sensor = SENSORS.contains(&name.as_str());
         match (is_sensor, unit) {
             (true, Some(u)) => {
                 let scale = g_per_unit(u).ok_or_else(|| CsvError::BadHeader {
@@ -302,34 +316,24 @@ fn units_to_g(names: Vec<String>) -> Result<(Vec<String>, Vec<f64>), CsvError> {
 /// twice).
 pub fn declares_sensor_units(path: &Path) -> std::io::Result<bool> {
     let text = std::fs::read_to_string(path)?;
-    let Some(header) = text
-        .lines()
-        .map(str::trim)
-        .find(|l| !l.is_empty() && !l.starts_with('#'))
-    else {
+    let Some((_, header)) = content_lines(&text).next() else {
         return Ok(false);
     };
-    let header = header.trim_start_matches('\u{feff}');
-    let names: Vec<String> = cells(header, detect_delimiter(header))
-        .into_iter()
-        .map(|c| c.trim_matches('"').to_string())
-        .collect();
+    let (_, names) = header_names(header);
     let bases: Vec<String> = names.iter().map(|n| split_unit(n).0.to_string()).collect();
     Ok(names
         .iter()
         .zip(sensor_names(bases))
-        .any(|(n, s)| ["DE", "FE", "BA"].contains(&s.as_str()) && split_unit(n).1.is_some()))
+        .any(|(n, s)| SENSORS.contains(&s.as_str()) && split_unit(n).1.is_some()))
 }
 
 /// The sensor each column names (module docs), or its own name.
 fn sensor_names(names: Vec<String>) -> Vec<String> {
     // The one sensor the name's tokens name (none, or two different ones: None).
     let sensor = |n: &str| -> Option<&'static str> {
-        let mut found = n.split(['_', '-', ' ', '.']).filter_map(|token| {
-            ["DE", "FE", "BA"]
-                .into_iter()
-                .find(|s| token.eq_ignore_ascii_case(s))
-        });
+        let mut found = n
+            .split(['_', '-', ' ', '.'])
+            .filter_map(|token| SENSORS.into_iter().find(|s| token.eq_ignore_ascii_case(s)));
         let first = found.next()?;
         found.all(|s| s == first).then_some(first)
     };

@@ -383,7 +383,19 @@ pub fn load_cwru_mat(
         path: path.to_path_buf(),
         source,
     })?;
-    let mat = read_mat(&bytes).map_err(|source| DataError::Mat {
+    cwru_mat_from_bytes(path, &bytes, file_number, fs_hz, rpm)
+}
+
+/// [`load_cwru_mat`] on the file's bytes, read already (`path` names the record and
+/// its errors).
+fn cwru_mat_from_bytes(
+    path: &Path,
+    bytes: &[u8],
+    file_number: Option<u32>,
+    fs_hz: f32,
+    rpm: Option<f32>,
+) -> Result<Recording, DataError> {
+    let mat = read_mat(bytes).map_err(|source| DataError::Mat {
         path: path.to_path_buf(),
         source,
     })?;
@@ -753,15 +765,18 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
 /// Load the CWRU record a manifest entry lists: variables picked by its file number,
 /// rate and recorded speed from the manifest.
 pub fn load_entry(entry: &ManifestEntry) -> Result<Recording, EntryError> {
-    if let Some(expected) = &entry.sha256 {
-        let bytes = std::fs::read(&entry.path).map_err(|source| EntryError::Record {
-            label: entry.label.clone(),
+    let failed = |source: DataError| EntryError::Record {
+        label: entry.label.clone(),
+        path: entry.path.clone(),
+        source: Box::new(source),
+    };
+    let bytes = std::fs::read(&entry.path).map_err(|source| {
+        failed(DataError::Io {
             path: entry.path.clone(),
-            source: Box::new(DataError::Io {
-                path: entry.path.clone(),
-                source,
-            }),
-        })?;
+            source,
+        })
+    })?;
+    if let Some(expected) = &entry.sha256 {
         let got = sha256_hex(&bytes);
         if &got != expected {
             return Err(EntryError::Checksum {
@@ -772,15 +787,12 @@ pub fn load_entry(entry: &ManifestEntry) -> Result<Recording, EntryError> {
             });
         }
     }
-    load_cwru_mat(
+    cwru_mat_from_bytes(
         &entry.path,
+        &bytes,
         Some(entry.file_number),
         entry.fs_hz,
         entry.rpm_recorded,
     )
-    .map_err(|source| EntryError::Record {
-        label: entry.label.clone(),
-        path: entry.path.clone(),
-        source: Box::new(source),
-    })
+    .map_err(failed)
 }

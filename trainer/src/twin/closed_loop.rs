@@ -611,22 +611,24 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
             // train must explain its own lines: a train of impacts adds broadband energy
             // wherever the structure responds, so the cost alone can fall for a rate no
             // line of the record carries.
+            let gap = |y: &[f32], sig: &Signature| {
+                evidence_gap(
+                    &cand.check,
+                    &cand.evidence.components,
+                    x,
+                    y,
+                    &target_res.psd_db,
+                    &to_db(&sig.psd, &target_res.meas.psd),
+                    &target_res.env_db,
+                    &to_db(&sig.env, &target_res.meas.env),
+                    &sig_res,
+                )
+            };
+            // The current model's gap, once for both starts.
+            let before = gap(&y_sim, &sim_sig_now);
             let judge = |trial: &FitResult| -> Result<Verdict, LoopError> {
                 let (y_trial, trial_sig) = residual_of(&trial.model)?;
-                let gap = |y: &[f32], sig: &Signature| {
-                    evidence_gap(
-                        &cand.check,
-                        &cand.evidence.components,
-                        x,
-                        y,
-                        &target_res.psd_db,
-                        &to_db(&sig.psd, &target_res.meas.psd),
-                        &target_res.env_db,
-                        &to_db(&sig.env, &target_res.meas.env),
-                        &sig_res,
-                    )
-                };
-                let (before, after) = (gap(&y_sim, &sim_sig_now), gap(&y_trial, &trial_sig));
+                let after = gap(&y_trial, &trial_sig);
                 let explained = match cand.check {
                     Check::Lines => after <= before - 3.0,
                     _ => after <= 0.5 * before,

@@ -127,6 +127,24 @@ impl Effect {
         }
     }
 
+    /// The bearing defect a second impact train's rate was named for (`None` for any
+    /// other effect, and for a train from elsewhere: a rub, a struck part). Its load
+    /// zone modulates it as it does that defect: at the core's
+    /// [`DefectFrequencies::modulation_rate`] (shaft for an inner race, cage for a ball,
+    /// none for a stationary outer race).
+    pub fn second_train_location(&self) -> Option<DefectLocation> {
+        let Effect::SecondImpactTrain { source, .. } = self else {
+            return None;
+        };
+        [
+            DefectLocation::OuterRace,
+            DefectLocation::InnerRace,
+            DefectLocation::Ball,
+        ]
+        .into_iter()
+        .find(|loc| fault_name(Some(*loc)) == source)
+    }
+
     /// Names and initial unconstrained values of the parameters it adds, from what the
     /// current model and the measurement say (`Start`).
     fn initial(&self, st: &Start<'_>) -> Vec<(String, f64)> {
@@ -134,11 +152,12 @@ impl Effect {
             noise,
             line_amp,
             force_gain,
-            shaft,
+            freqs,
             peak_displacement,
             impact_amp,
             background,
         } = *st;
+        let shaft = f64::from(freqs.shaft);
         let amp_or = |f: f64| line_amp(f).unwrap_or(3.0 * noise).max(1e-9).ln();
         match self {
             Effect::ShaftHarmonics { orders } => orders
@@ -184,7 +203,10 @@ impl Effect {
                     20.0 * background
                 };
                 let mut v = vec![("ln_impact2_amp".into(), start.max(1e-9).ln())];
-                if second_train_modulation_hz(self, 1.0, 1.0) > 0.0 {
+                if self
+                    .second_train_location()
+                    .is_some_and(|loc| freqs.modulation_rate(loc) > 0.0)
+                {
                     v.push(("logit_modulation2_depth".into(), 0.0));
                 }
                 v
@@ -202,29 +224,14 @@ struct Start<'a> {
     line_amp: &'a dyn Fn(f64) -> Option<f64>,
     /// The model's output amplitude per newton of force at a frequency.
     force_gain: &'a dyn Fn(f64) -> f64,
-    /// Shaft rate, Hz.
-    shaft: f64,
+    /// Kinematic frequencies at the nominal speed.
+    freqs: DefectFrequencies,
     /// Peak displacement of one impact's ring-down, m.
     peak_displacement: f64,
     /// The modelled defect's impact level, N (0 for a healthy model).
     impact_amp: f64,
     /// Background force σ_F, N.
     background: f64,
-}
-
-/// The load-zone modulation rate of a second impact train: a defect that turns with
-/// the shaft (inner race) or with the cage (ball) passes through the load zone once per
-/// turn, so its impacts are modulated at `shaft_hz` or `ftf_hz`; a stationary one
-/// (outer race) and trains of other sources are not (0).
-pub fn second_train_modulation_hz(e: &Effect, shaft_hz: f64, ftf_hz: f64) -> f64 {
-    match e {
-        Effect::SecondImpactTrain { source, .. } => match source.as_str() {
-            "inner_race" => shaft_hz,
-            "ball" => ftf_hz,
-            _ => 0.0,
-        },
-        _ => 0.0,
-    }
 }
 
 /// A named unconstrained parameter.
@@ -316,7 +323,6 @@ impl TwinModel {
             w * w / (re * re + im * im).sqrt() / f64::from(G)
         };
         let first = m.params.len();
-        let shaft = f64::from(self.op.freqs.shaft);
         // Peak displacement of an impact ring-down: impulse A·σ·√(2π) / (m·ω_n).
         let amp = self.get("ln_impact_amp").map_or(0.0, f64::exp);
         let peak = amp * IMPACT_SIGMA_S * (2.0 * std::f64::consts::PI).sqrt()
@@ -332,7 +338,7 @@ impl TwinModel {
             noise,
             line_amp,
             force_gain: &force_gain,
-            shaft,
+            freqs: self.op.freqs,
             peak_displacement: peak,
             impact_amp: amp,
             background,
@@ -541,13 +547,14 @@ impl TwinModel {
             }
         }
         for (e, p) in self.effects_of("second_impact_train") {
-            if let Effect::SecondImpactTrain { rate_hz, source } = e {
+            if let Effect::SecondImpactTrain { rate_hz, .. } = e {
                 // Rolling-element slip times every defect's impacts alike; a train
                 // from elsewhere (a rub, a struck part) keeps its own clock.
-                let bearing_defect =
-                    matches!(source.as_str(), "inner_race" | "outer_race" | "ball");
-                let mod_hz =
-                    second_train_modulation_hz(e, shaft, f64::from(self.op.freqs.ftf) * centre);
+                let location = e.second_train_location();
+                let bearing_defect = location.is_some();
+                let mod_hz = location.map_or(0.0, |loc| {
+                    centre * f64::from(self.op.freqs.modulation_rate(loc))
+                });
                 let depth = match p.get(1) {
                     Some(q) if mod_hz > 0.0 => 1.0 / (1.0 + (-q.value).exp()),
                     _ => 0.0,

@@ -5,7 +5,7 @@
 //! residual `d(f) = measured − model`: `d > median(d) + max(6 dB, 5·1.4826·MAD(d))` (5σ over some 2000 bins).
 //! Narrow runs (≤ 4 bins, a Hann main lobe) are lines; wider runs are bands.
 
-use super::model::{second_train_modulation_hz, Effect, TwinModel};
+use super::model::{fault_name, Effect, TwinModel};
 use super::signature::{to_db, welch, Signature, SignatureConfig};
 use pumptwin_core::bearing::DefectLocation;
 use pumptwin_core::features::{envelope, peak_frequency, EnvelopeBand};
@@ -267,7 +267,8 @@ pub fn on_model_comb(model: &TwinModel, c: &Component, df: f64, span_s: f64) -> 
             Effect::SpeedDrift { .. } => drift = model.params[*first].value.abs(),
             Effect::SecondImpactTrain { rate_hz, .. } => combs.push((
                 *rate_hz,
-                second_train_modulation_hz(e, f64::from(freqs.shaft), f64::from(freqs.ftf)),
+                e.second_train_location()
+                    .map_or(0.0, |loc| f64::from(freqs.modulation_rate(loc))),
             )),
             _ => {}
         }
@@ -618,6 +619,19 @@ fn has(model: &TwinModel, name: &str) -> bool {
     model.effects.iter().any(|(e, _)| e.name() == name)
 }
 
+/// Is `f` within `tol` of a line a load zone puts in the envelope spectrum of impacts
+/// at `fd` modulated at `fm`: a sideband `k·fd ± m·fm` (k ≤ 5) or `m·fm` itself (m ≤ 2)?
+fn load_zone_line(f: f64, fd: f64, fm: f64, tol: f64) -> bool {
+    (1..=2).any(|m| {
+        let side = f64::from(m) * fm;
+        (f - side).abs() < tol
+            || (1..=5).any(|k| {
+                let tooth = f64::from(k) * fd;
+                (f - (tooth + side)).abs() < tol || (f - (tooth - side)).abs() < tol
+            })
+    })
+}
+
 /// A second impact train read off the residual's envelope lines.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SecondTrain {
@@ -669,16 +683,7 @@ pub fn second_train(
     // are that effect's evidence, not a second train's — also once the model modulates:
     // its load zone is a cosine, and a real one's second harmonic stays in the residual.
     let modulation_line = |f: f64| match own {
-        Some((fd, fm)) if fm > 0.0 => {
-            (1..=2).any(|m| (f - f64::from(m) * fm).abs() < tol(f))
-                || (1..=5).any(|k| {
-                    (1..=2).any(|m| {
-                        let c = f64::from(k) * fd;
-                        (f - (c + f64::from(m) * fm)).abs() < tol(f)
-                            || (f - (c - f64::from(m) * fm)).abs() < tol(f)
-                    })
-                })
-        }
+        Some((fd, fm)) if fm > 0.0 => load_zone_line(f, fd, fm, tol(f)),
         _ => false,
     };
     let lines: Vec<&Component> = analysis
@@ -762,18 +767,29 @@ pub fn second_train(
         }
     }
     let (idx, harmonics, r, _) = best?;
+    // Bearing sources carry `fault_name`'s names, which `Effect::second_train_location`
+    // reads back.
     let mut named: Vec<(f64, &'static str)> = vec![
-        (f64::from(freqs.bpfo), "outer_race"),
-        (f64::from(freqs.bpfi), "inner_race"),
-        (f64::from(freqs.impact_rate(DefectLocation::Ball)), "ball"),
-        (f64::from(freqs.bsf), "ball"),
+        (
+            f64::from(freqs.bpfo),
+            fault_name(Some(DefectLocation::OuterRace)),
+        ),
+        (
+            f64::from(freqs.bpfi),
+            fault_name(Some(DefectLocation::InnerRace)),
+        ),
+        (
+            f64::from(freqs.impact_rate(DefectLocation::Ball)),
+            fault_name(Some(DefectLocation::Ball)),
+        ),
+        (f64::from(freqs.bsf), fault_name(Some(DefectLocation::Ball))),
         (shaft, "shaft"),
     ];
     if let Some(loc) = model.fault {
         let own_rate = f64::from(freqs.impact_rate(loc));
         named.retain(|(f, _)| (f - own_rate).abs() > 1e-6);
         if loc == DefectLocation::Ball {
-            named.retain(|(_, n)| *n != "ball");
+            named.retain(|(_, n)| *n != fault_name(Some(DefectLocation::Ball)));
         }
     }
     let source = named
@@ -1039,16 +1055,7 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
             .envelope
             .iter()
             .filter(|c| c.kind == "line")
-            .filter(|c| {
-                (1..=5).any(|k| {
-                    (1..=2).any(|m| {
-                        let a = (c.f_hz - (k as f64 * fd + m as f64 * fm)).abs();
-                        let b = (c.f_hz - (k as f64 * fd - m as f64 * fm)).abs();
-                        a.min(b) < (2.0 * dfe).max(0.01 * c.f_hz)
-                    })
-                }) || (1..=2)
-                    .any(|m| (c.f_hz - m as f64 * fm).abs() < (2.0 * dfe).max(0.01 * c.f_hz))
-            })
+            .filter(|c| load_zone_line(c.f_hz, fd, fm, (2.0 * dfe).max(0.01 * c.f_hz)))
             .cloned()
             .collect();
         if !side.is_empty() && loc != DefectLocation::OuterRace || side.len() >= 2 {
