@@ -33,7 +33,7 @@ fuzz_target!(|data: &[u8]| {
     let Ok(text) = std::str::from_utf8(data) else {
         return; // the loader reads files with read_to_string: UTF-8 or an I/O error
     };
-    if let Ok(rec) = csv::parse_csv(text, "fuzz", 12_000.0, Some(1797.0)) {
+    if let Ok(rec) = csv::parse_csv(text, "fuzz", Some(12_000.0), Some(1797.0)) {
         let n = rec.channels.first().map_or(0, |c| c.samples.len());
         assert!(!rec.channels.is_empty());
         for c in &rec.channels {

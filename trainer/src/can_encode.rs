@@ -41,7 +41,7 @@ pub struct CanEncodeArgs {
     /// The candump log to write.
     #[arg(long)]
     pub out: PathBuf,
-    /// Sampling rate of the inputs, Hz (CSV; .mat takes it from MANIFEST.tsv).
+    /// Sampling rate of the inputs, Hz (else a CSV's `# fs_hz=` line, a .mat's MANIFEST.tsv entry).
     #[arg(long)]
     pub fs: Option<f32>,
     /// Start of the encoded part of each input, as a fraction of its length.

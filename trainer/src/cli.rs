@@ -176,12 +176,11 @@ fn kinematic_markers(f: &pumptwin_core::bearing::DefectFrequencies) -> Vec<(f32,
 pub fn write_csv(rec: &Recording, path: &Path) -> Result<()> {
     let file = std::fs::File::create(path).with_context(|| format!("create {}", path.display()))?;
     let mut w = std::io::BufWriter::new(file);
-    writeln!(
-        w,
-        "# fs_hz={} rpm={}",
-        rec.fs_hz,
-        rec.rpm.unwrap_or(f32::NAN)
-    )?;
+    // The declaration `parse_csv` reads back: no --fs or --rpm needed for this file.
+    match rec.rpm {
+        Some(rpm) => writeln!(w, "# fs_hz={} rpm={rpm}", rec.fs_hz)?,
+        None => writeln!(w, "# fs_hz={}", rec.fs_hz)?,
+    }
     let names: Vec<&str> = rec.channels.iter().map(|c| c.name.as_str()).collect();
     writeln!(w, "{}", names.join(","))?;
     for i in 0..rec.len() {
@@ -288,10 +287,10 @@ pub struct RecordArgs {
     /// Recording (.mat in CWRU layout, or .csv with a header row).
     #[arg(long)]
     pub input: PathBuf,
-    /// Sampling rate, Hz (required for CSV; .mat takes it from MANIFEST.tsv if absent).
+    /// Sampling rate, Hz (else the file's: a CSV's `# fs_hz=` line before its header, a .mat's MANIFEST.tsv entry).
     #[arg(long)]
     pub fs: Option<f32>,
-    /// Shaft speed, rpm (required when the file does not carry it).
+    /// Shaft speed, rpm (required when the file does not carry it: a .mat's RPM variable, a CSV's `# rpm=` line).
     #[arg(long)]
     pub rpm: Option<f32>,
     /// Bearing: cwru-6205-de, cwru-6203-fe, or n,d,D,angle_deg.

@@ -24,9 +24,21 @@
 //! 1 g = 9.80665 m/s²). A sensor column with any other unit (`DE [V]`) is an error, as
 //! it is not an acceleration; without a unit the samples are taken as g.
 //!
-//! A CSV carries no sampling rate or shaft speed, and guessing either would silently
-//! distort every frequency feature, so both come from the caller (CLI flags); there
-//! are no defaults. Every cell must be a finite number: a blank, text, NaN or infinite
+//! The sampling rate and the shaft speed are never guessed (a wrong one silently
+//! distorts every frequency feature): they come from the caller (CLI flags) or from the
+//! file's own declaration, `key=value` tokens on the comment lines before the header,
+//! as `pumptwin twin generate` and `simulate` write them:
+//!
+//! ```text
+//! # fs_hz=12000 rpm=1797
+//! DE
+//! ```
+//!
+//! Keys `fs_hz` and `rpm` in any case (other keys are free text); a declared value
+//! that is not a positive finite number, a key declared twice with different values,
+//! or a flag that disagrees with the declaration (by more than 0.1 %) is an error —
+//! one of the two is wrong, and the loader cannot know which. There are no defaults:
+//! a file with no rate and no `--fs` is an error. Every cell must be a finite number: a blank, text, NaN or infinite
 //! cell is an error that names the line and the column, never a skipped row, because a
 //! dropped sample shifts the time base of everything after it.
 
@@ -90,6 +102,114 @@ pub enum CsvError {
         /// The value given.
         value: f32,
     },
+    /// Neither the caller nor the file gives the sampling rate.
+    #[error(
+        "sampling rate unknown: pass it explicitly (e.g. --fs 12000) or declare it on a \
+         comment line before the header (`# fs_hz=12000 rpm=1797`)"
+    )]
+    MissingSamplingRate,
+    /// A `fs_hz=`/`rpm=` declaration in the comments before the header is unusable.
+    #[error("line {line}: declaration {token:?}: {reason}")]
+    BadDeclaration {
+        /// 1-based line number in the file.
+        line: usize,
+        /// The `key=value` token.
+        token: String,
+        /// What is wrong.
+        reason: &'static str,
+    },
+    /// The caller's value and the file's declaration disagree.
+    #[error(
+        "the file declares {what}={declared}, but {given} was given: one of them is wrong \
+         (drop the flag or correct the file)"
+    )]
+    Disagrees {
+        /// `fs_hz` or `rpm`.
+        what: &'static str,
+        /// The file's value.
+        declared: f32,
+        /// The caller's value.
+        given: f32,
+    },
+}
+
+/// What a file declares about itself before its header (module docs).
+#[derive(Debug, Default, Clone, Copy, PartialEq)]
+struct Declared {
+    fs_hz: Option<f32>,
+    rpm: Option<f32>,
+}
+
+/// Two values of one quantity agree within 0.1 % (a rate or speed rounded in a header).
+fn agree(a: f32, b: f32) -> bool {
+    (a - b).abs() <= 1e-3 * a.max(b)
+}
+
+/// The `fs_hz=` and `rpm=` tokens of the comment lines before the header.
+fn declarations(text: &str) -> Result<Declared, CsvError> {
+    let mut declared = Declared::default();
+    for (i, line) in text.lines().enumerate() {
+        let t = line.trim_start_matches('\u{feff}').trim();
+        if t.is_empty() {
+            continue;
+        }
+        let Some(comment) = t.strip_prefix('#') else {
+            break; // the header: declarations end there
+        };
+        // `fs_hz = 12000` is `fs_hz=12000`.
+        let mut comment = comment.to_string();
+        while comment.contains(" =") || comment.contains("= ") {
+            comment = comment.replace(" =", "=").replace("= ", "=");
+        }
+        for token in comment.split(|c: char| c.is_whitespace() || c == ',' || c == ';') {
+            let Some((key, value)) = token.split_once('=') else {
+                continue;
+            };
+            let (what, slot) = match key.to_ascii_lowercase().as_str() {
+                "fs_hz" => ("fs_hz", &mut declared.fs_hz),
+                "rpm" => ("rpm", &mut declared.rpm),
+                _ => continue,
+            };
+            let bad = |reason| CsvError::BadDeclaration {
+                line: i + 1,
+                token: token.to_string(),
+                reason,
+            };
+            let v = value
+                .parse::<f32>()
+                .ok()
+                .filter(|v| v.is_finite() && *v > 0.0)
+                .ok_or_else(|| bad("not a positive finite number"))?;
+            if slot.is_some_and(|prev| !agree(prev, v)) {
+                return Err(bad(if what == "fs_hz" {
+                    "fs_hz declared twice with different values"
+                } else {
+                    "rpm declared twice with different values"
+                }));
+            }
+            *slot = Some(v);
+        }
+    }
+    Ok(declared)
+}
+
+/// The caller's value, checked, else the file's; both given must agree.
+fn resolve(
+    what: &'static str,
+    given: Option<f32>,
+    declared: Option<f32>,
+) -> Result<Option<f32>, CsvError> {
+    match (given, declared) {
+        (Some(value), _) if !(value.is_finite() && value > 0.0) => {
+            Err(CsvError::InvalidParameter { what, value })
+        }
+        (Some(given), Some(declared)) if !agree(given, declared) => Err(CsvError::Disagrees {
+            what,
+            declared,
+            given,
+        }),
+        (given, declared) => Ok(given.or(declared)),
+    }
 }
 
 /// Pick the delimiter from the header row: the most frequent of `,`, `;`, tab;
@@ -111,26 +231,17 @@ fn cells(line: &str, delimiter: Option<char>) -> Vec<&str> {
     }
 }
 
-/// Parse CSV text into a [`Recording`] named `name`, sampled at `fs_hz`, with an
-/// optional shaft speed `rpm` (both from the caller).
+/// Parse CSV text into a [`Recording`] named `name`: sampling rate and shaft speed from
+/// the caller (`fs_hz`, `rpm`) or the file's declaration (module docs).
 pub fn parse_csv(
     text: &str,
     name: &str,
-    fs_hz: f32,
+    fs_hz: Option<f32>,
     rpm: Option<f32>,
 ) -> Result<Recording, CsvError> {
-    if !(fs_hz.is_finite() && fs_hz > 0.0) {
-        return Err(CsvError::InvalidParameter {
-            what: "fs_hz",
-            value: fs_hz,
-        });
-    }
-    if let Some(r) = rpm.filter(|r| !(r.is_finite() && *r > 0.0)) {
-        return Err(CsvError::InvalidParameter {
-            what: "rpm",
-            value: r,
-        });
-    }
+    let declared = declarations(text)?;
+    let fs_hz = resolve("fs_hz", fs_hz, declared.fs_hz)?.ok_or(CsvError::MissingSamplingRate)?;
+    let rpm = resolve("rpm", rpm, declared.rpm)?;
     let mut lines = content_lines(text);
     let (_, header) = lines.next().ok_or(CsvError::MissingHeader)?;
     let (delimiter, names) = header_names(header);
@@ -370,7 +481,7 @@ mod tests {
         for d in [",", ";", "\t"] {
             let text =
                 format!("# pump P-101, bearing 6205\nDE{d}FE\n1.5{d}-2\n# pause\n\n3e-3{d} 4 \r\n");
-            let rec = parse_csv(&text, "p101", 25_600.0, Some(2950.0)).expect("valid csv");
+            let rec = parse_csv(&text, "p101", Some(25_600.0), Some(2950.0)).expect("valid csv");
             assert_eq!(rec.fs_hz, 25_600.0);
             assert_eq!(rec.rpm, Some(2950.0));
             assert_eq!(rec.channels.len(), 2);
@@ -383,7 +494,7 @@ mod tests {
 
     #[test]
     fn single_column_and_quoted_header() {
-        let rec = parse_csv("\"acc\"\n1\n2\n3\n", "x", 1000.0, None).expect("valid");
+        let rec = parse_csv("\"acc\"\n1\n2\n3\n", "x", Some(1000.0), None).expect("valid");
         assert_eq!(rec.channels.len(), 1);
         assert_eq!(rec.channels[0].name, "acc");
         assert_eq!(rec.channels[0].samples, vec![1.0, 2.0, 3.0]);
@@ -391,19 +502,19 @@ mod tests {
 
     #[test]
     fn bad_cells_name_line_and_column() {
-        let err = parse_csv("DE,FE\n1,2\n3,abc\n", "x", 1000.0, None).expect_err("text cell");
+        let err = parse_csv("DE,FE\n1,2\n3,abc\n", "x", Some(1000.0), None).expect_err("text cell");
         assert!(
             matches!(&err, CsvError::NotANumber { line: 3, column, .. } if column == "FE"),
             "{err}"
         );
         for bad in ["NaN", "inf", "-Infinity", "1e40"] {
-            let err = parse_csv(&format!("DE,FE\n{bad},2\n"), "x", 1000.0, None).expect_err(bad);
+            let err = parse_csv(&format!("DE,FE\n{bad},2\n"), "x", Some(1000.0), None).expect_err(bad);
             assert!(
                 matches!(&err, CsvError::NonFinite { line: 2, column, .. } if column == "DE"),
                 "{err}"
             );
         }
-        let err = parse_csv("DE,FE\n1,2\n\n3\n", "x", 1000.0, None).expect_err("ragged");
+        let err = parse_csv("DE,FE\n1,2\n\n3\n", "x", Some(1000.0), None).expect_err("ragged");
         assert!(
             matches!(
                 err,
@@ -416,44 +527,81 @@ mod tests {
             ),
             "{err}"
         );
-        let err = parse_csv("DE,FE\n1,2,3\n", "x", 1000.0, None).expect_err("ragged");
+        let err = parse_csv("DE,FE\n1,2,3\n", "x", Some(1000.0), None).expect_err("ragged");
         assert!(matches!(err, CsvError::Ragged { got: 3, .. }), "{err}");
-        let err = parse_csv("DE,FE\n1,\n", "x", 1000.0, None).expect_err("blank cell");
+        let err = parse_csv("DE,FE\n1,\n", "x", Some(1000.0), None).expect_err("blank cell");
         assert!(matches!(err, CsvError::NotANumber { .. }), "{err}");
     }
 
     #[test]
     fn header_and_parameter_errors() {
         assert!(matches!(
-            parse_csv("# only\n", "x", 1.0, None),
+            parse_csv("# only\n", "x", Some(1.0), None),
             Err(CsvError::MissingHeader)
         ));
         assert!(matches!(
-            parse_csv("DE,FE\n", "x", 1.0, None),
+            parse_csv("DE,FE\n", "x", Some(1.0), None),
             Err(CsvError::NoRows)
         ));
         assert!(matches!(
-            parse_csv("DE,DE\n1,2\n", "x", 1.0, None),
+            parse_csv("DE,DE\n1,2\n", "x", Some(1.0), None),
             Err(CsvError::BadHeader { .. })
         ));
         assert!(matches!(
-            parse_csv("DE,\n1,2\n", "x", 1.0, None),
+            parse_csv("DE,\n1,2\n", "x", Some(1.0), None),
             Err(CsvError::BadHeader { .. })
         ));
         assert!(matches!(
-            parse_csv("DE\n1\n", "x", 0.0, None),
+            parse_csv("DE\n1\n", "x", Some(0.0), None),
             Err(CsvError::InvalidParameter { what: "fs_hz", .. })
         ));
         assert!(matches!(
-            parse_csv("DE\n1\n", "x", 1.0, Some(f32::NAN)),
+            parse_csv("DE\n1\n", "x", Some(1.0), Some(f32::NAN)),
             Err(CsvError::InvalidParameter { what: "rpm", .. })
         ));
     }
 
     #[test]
+    fn the_file_may_declare_its_rate_and_speed() {
+        let text = "# pump P-101, bearing 6205\n# fs_hz=12000 RPM = 1797 (nominal)\nDE\n1\n2\n";
+        let rec = parse_csv(text, "d", None, None).expect("declared");
+        assert_eq!((rec.fs_hz, rec.rpm), (12_000.0, Some(1797.0)));
+        // A flag that agrees (within 0.1 %) is fine; the flag's value is used.
+        let rec = parse_csv(text, "d", Some(12_000.0), Some(1796.0)).expect("agrees");
+        assert_eq!(rec.rpm, Some(1796.0));
+        // One that disagrees is an error, as is no rate at all.
+        let err = parse_csv(text, "d", Some(48_000.0), None).expect_err("disagrees");
+        assert!(
+            matches!(err, CsvError::Disagrees { what: "fs_hz", declared, given } if declared == 12_000.0 && given == 48_000.0),
+            "{err}"
+        );
+        let err = parse_csv(text, "d", None, Some(1500.0)).expect_err("rpm disagrees");
+        assert!(matches!(err, CsvError::Disagrees { what: "rpm", .. }), "{err}");
+        let err = parse_csv("# rpm=1797\nDE\n1\n", "d", None, None).expect_err("no rate");
+        assert!(matches!(err, CsvError::MissingSamplingRate), "{err}");
+        assert!(err.to_string().contains("fs_hz=12000"), "{err}");
+        // Only the comments before the header declare; later ones are free text.
+        let err = parse_csv("DE\n# fs_hz=12000\n1\n", "d", None, None).expect_err("after");
+        assert!(matches!(err, CsvError::MissingSamplingRate), "{err}");
+        // Unusable declarations name their line.
+        for (text, line) in [
+            ("# fs_hz=abc\nDE\n1\n", 1),
+            ("# c\n# rpm=NaN\nDE\n1\n", 2),
+            ("# fs_hz=-5\nDE\n1\n", 1),
+            ("# fs_hz=12000\n# fs_hz=48000\nDE\n1\n", 2),
+        ] {
+            let err = parse_csv(text, "d", None, None).expect_err(text);
+            assert!(
+                matches!(err, CsvError::BadDeclaration { line: l, .. } if l == line),
+                "{text}: {err}"
+            );
+        }
+    }
+
+    #[test]
     fn delimiter_comes_from_the_header() {
         // Semicolon header: a comma inside a cell is not a delimiter, so "1,5" is a bad number.
-        let err = parse_csv("DE;FE\n1,5;2\n", "x", 1.0, None).expect_err("decimal comma");
+        let err = parse_csv("DE;FE\n1,5;2\n", "x", Some(1.0), None).expect_err("decimal comma");
         assert!(matches!(err, CsvError::NotANumber { .. }), "{err}");
     }
 
@@ -462,17 +610,17 @@ mod tests {
         let rec = parse_csv(
             "de;X105_FE_time;Ba accel;temp\n1;2;3;4\n",
             "r",
-            12_000.0,
+            Some(12_000.0),
             None,
         )
         .expect("parsed");
         let names: Vec<&str> = rec.channels.iter().map(|c| c.name.as_str()).collect();
         assert_eq!(names, ["DE", "FE", "BA", "temp"]);
         // Two columns for one sensor, or one name for two: each keeps its own.
-        let rec = parse_csv("de,DE_time,DE_FE\n1,2,3\n", "r", 12_000.0, None).expect("parsed");
+        let rec = parse_csv("de,DE_time,DE_FE\n1,2,3\n", "r", Some(12_000.0), None).expect("parsed");
         let names: Vec<&str> = rec.channels.iter().map(|c| c.name.as_str()).collect();
         assert_eq!(names, ["de", "DE_time", "DE_FE"]);
-        let rec = parse_csv("DE,de_time\n1,2\n", "r", 12_000.0, None).expect("parsed");
+        let rec = parse_csv("DE,de_time\n1,2\n", "r", Some(12_000.0), None).expect("parsed");
         let names: Vec<&str> = rec.channels.iter().map(|c| c.name.as_str()).collect();
         assert_eq!(names, ["DE", "de_time"]);
     }
@@ -482,7 +630,7 @@ mod tests {
         let rec = parse_csv(
             "DE [m/s^2],FE (mg),BA_acc[g],temp [C]\n9.80665,1000,0.5,20\n-19.6133,-500,1,21\n",
             "u",
-            12_000.0,
+            Some(12_000.0),
             None,
         )
         .expect("units");
@@ -497,13 +645,13 @@ mod tests {
         );
         for spelling in ["m/s²", "m s^-2", "ms-2", "m·s^-2"] {
             let text = format!("DE [{spelling}]\n9.80665\n");
-            let r = parse_csv(&text, "u", 1.0, None).expect(spelling);
+            let r = parse_csv(&text, "u", Some(1.0), None).expect(spelling);
             assert!(
                 (r.channel("DE").expect("DE").samples[0] - 1.0).abs() < 1e-6,
                 "{spelling}"
             );
         }
-        let err = parse_csv("DE [V]\n1\n", "u", 1.0, None).expect_err("volts");
+        let err = parse_csv("DE [V]\n1\n", "u", Some(1.0), None).expect_err("volts");
         assert!(err.to_string().contains("not an acceleration"), "{err}");
         // What `twin loop` asks before it applies `--unit-scale` on top.
         let dir = crate::data::record::tests::scratch_dir("csv-units");
@@ -522,7 +670,7 @@ mod tests {
     #[test]
     fn a_row_of_numbers_is_no_header() {
         let err =
-            parse_csv("0.1,0.2,0.3\n0.4,0.5,0.6\n", "r", 12_000.0, None).expect_err("no header");
+            parse_csv("0.1,0.2,0.3\n0.4,0.5,0.6\n", "r", Some(12_000.0), None).expect_err("no header");
         assert!(matches!(err, CsvError::BadHeader { .. }), "{err}");
         assert!(err.to_string().contains("header row"), "{err}");
     }

@@ -148,17 +148,16 @@ pub enum DataError {
         /// The file.
         path: PathBuf,
     },
-    /// No sampling rate was given and none could be found.
+    /// No sampling rate was given for a `.mat` file and no manifest lists it (a CSV
+    /// file's missing rate is a [`CsvError::MissingSamplingRate`]).
     #[error(
-        "{}: sampling rate unknown — pass it explicitly (e.g. --fs 12000){}",
-        path.display(),
-        if *manifest_searched { " or keep the .mat file beside a MANIFEST.tsv that lists it" } else { "" }
+        "{}: sampling rate unknown — pass it explicitly (e.g. --fs 12000) or keep the .mat \
+         file beside a MANIFEST.tsv that lists it",
+        path.display()
     )]
     MissingSamplingRate {
         /// The file.
         path: PathBuf,
-        /// Whether a manifest could have supplied it.
-        manifest_searched: bool,
     },
     /// A parameter is not a positive finite number.
     #[error("{what} must be a positive finite number, got {value}")]
@@ -403,8 +402,13 @@ fn cwru_mat_from_bytes(
     recording_from_cwru_mat(&mat, &stem_name(path), number, fs_hz, rpm)
 }
 
-/// Load a CSV recording sampled at `fs_hz`.
-pub fn load_csv(path: &Path, fs_hz: f32, rpm: Option<f32>) -> Result<Recording, DataError> {
+/// Load a CSV recording; sampling rate and speed from the caller or the file's
+/// declaration ([`parse_csv`]).
+pub fn load_csv(
+    path: &Path,
+    fs_hz: Option<f32>,
+    rpm: Option<f32>,
+) -> Result<Recording, DataError> {
     let text = std::fs::read_to_string(path).map_err(|source| DataError::Io {
         path: path.to_path_buf(),
         source,
@@ -451,7 +455,8 @@ pub fn manifest_fs_hz(path: &Path) -> Result<Option<f32>, DataError> {
 ///
 /// - `.mat` (CWRU layout): `fs_hz` from the caller, else from a `MANIFEST.tsv` beside
 ///   the file (or one directory up) that lists it; rpm from the file, else the caller.
-/// - `.csv`: `fs_hz` must come from the caller; rpm from the caller.
+/// - `.csv`: `fs_hz` and rpm from the caller, else from the file's declaration
+///   (`# fs_hz=12000 rpm=1797` before the header); both given must agree.
 pub fn load_recording(
     path: &Path,
     fs_hz: Option<f32>,
@@ -467,18 +472,11 @@ pub fn load_recording(
                 Some(fs) => fs,
                 None => manifest_fs_hz(path)?.ok_or_else(|| DataError::MissingSamplingRate {
                     path: path.to_path_buf(),
-                    manifest_searched: true,
                 })?,
             };
             load_cwru_mat(path, None, fs_hz, rpm)
         }
-        Some("csv") => {
-            let fs_hz = fs_hz.ok_or_else(|| DataError::MissingSamplingRate {
-                path: path.to_path_buf(),
-                manifest_searched: false,
-            })?;
-            load_csv(path, fs_hz, rpm)
-        }
+        Some("csv") => load_csv(path, fs_hz, rpm),
         _ => Err(DataError::UnsupportedFormat {
             path: path.to_path_buf(),
         }),
@@ -649,7 +647,10 @@ pub(crate) mod tests {
         assert_eq!(r.channels[0].samples, vec![0.5, 0.25]);
         assert!(matches!(
             load_recording(&dir.join("p.csv"), None, None),
-            Err(DataError::MissingSamplingRate { .. })
+            Err(DataError::Csv {
+                source: CsvError::MissingSamplingRate,
+                ..
+            })
         ));
         let r = load_recording(&dir.join("p.csv"), Some(1000.0), None).expect("csv");
         assert_eq!(r.channels[0].samples, vec![1.0, 2.0]);
