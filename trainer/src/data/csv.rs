@@ -508,7 +508,8 @@ mod tests {
             "{err}"
         );
         for bad in ["NaN", "inf", "-Infinity", "1e40"] {
-            let err = parse_csv(&format!("DE,FE\n{bad},2\n"), "x", Some(1000.0), None).expect_err(bad);
+            let err =
+                parse_csv(&format!("DE,FE\n{bad},2\n"), "x", Some(1000.0), None).expect_err(bad);
             assert!(
                 matches!(&err, CsvError::NonFinite { line: 2, column, .. } if column == "DE"),
                 "{err}"
@@ -576,7 +577,10 @@ mod tests {
             "{err}"
         );
         let err = parse_csv(text, "d", None, Some(1500.0)).expect_err("rpm disagrees");
-        assert!(matches!(err, CsvError::Disagrees { what: "rpm", .. }), "{err}");
+        assert!(
+            matches!(err, CsvError::Disagrees { what: "rpm", .. }),
+            "{err}"
+        );
         let err = parse_csv("# rpm=1797\nDE\n1\n", "d", None, None).expect_err("no rate");
         assert!(matches!(err, CsvError::MissingSamplingRate), "{err}");
         assert!(err.to_string().contains("fs_hz=12000"), "{err}");
@@ -617,7 +621,8 @@ mod tests {
         let names: Vec<&str> = rec.channels.iter().map(|c| c.name.as_str()).collect();
         assert_eq!(names, ["DE", "FE", "BA", "temp"]);
         // Two columns for one sensor, or one name for two: each keeps its own.
-        let rec = parse_csv("de,DE_time,DE_FE\n1,2,3\n", "r", Some(12_000.0), None).expect("parsed");
+        let rec =
+            parse_csv("de,DE_time,DE_FE\n1,2,3\n", "r", Some(12_000.0), None).expect("parsed");
         let names: Vec<&str> = rec.channels.iter().map(|c| c.name.as_str()).collect();
         assert_eq!(names, ["de", "DE_time", "DE_FE"]);
         let rec = parse_csv("DE,de_time\n1,2\n", "r", Some(12_000.0), None).expect("parsed");
@@ -669,8 +674,8 @@ mod tests {
 
     #[test]
     fn a_row_of_numbers_is_no_header() {
-        let err =
-            parse_csv("0.1,0.2,0.3\n0.4,0.5,0.6\n", "r", Some(12_000.0), None).expect_err("no header");
+        let err = parse_csv("0.1,0.2,0.3\n0.4,0.5,0.6\n", "r", Some(12_000.0), None)
+            .expect_err("no header");
         assert!(matches!(err, CsvError::BadHeader { .. }), "{err}");
         assert!(err.to_string().contains("header row"), "{err}");
     }

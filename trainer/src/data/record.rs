@@ -404,11 +404,7 @@ fn cwru_mat_from_bytes(
 
 /// Load a CSV recording; sampling rate and speed from the caller or the file's
 /// declaration ([`parse_csv`]).
-pub fn load_csv(
-    path: &Path,
-    fs_hz: Option<f32>,
-    rpm: Option<f32>,
-) -> Result<Recording, DataError> {
+pub fn load_csv(path: &Path, fs_hz: Option<f32>, rpm: Option<f32>) -> Result<Recording, DataError> {
     let text = std::fs::read_to_string(path).map_err(|source| DataError::Io {
         path: path.to_path_buf(),
         source,

@@ -5,7 +5,7 @@
 use super::fit::{evaluate, fit, FitConfig, FitError, FitResult, Target};
 use super::model::{fault_name, Effect, OperatingPoint, TwinModel};
 use super::residual::{
-    analyse, evidence_gap, trace, Check, Evidence, ResidualAnalysis, TraceContext,
+    analyse, evidence_gap, trace, Candidate, Check, Evidence, ResidualAnalysis, TraceContext,
 };
 use super::signature::{error_figures, to_db, ErrorFigures, Signature, SignatureConfig};
 use pumptwin_core::bearing::{BearingGeometry, DefectLocation};
@@ -430,6 +430,13 @@ const FIRST_FIT_MIN_GAIN: f32 = 1e-5;
 /// eleven of them.
 const TRIAL_MIN_GAIN: f32 = 1e-4;
 
+/// The level below which the envelope error (`envelope_rmse`, relative to the measured
+/// envelope spectrum's mean) is noise: the exact model of a generated record scores
+/// 0.56–0.81 against it (the controls of `e2e closed_loop`), because the envelope
+/// spectrum is dominated by a few narrow lines whose levels scatter from one noise
+/// realisation to the next. The judge weighs changes of the envelope error from here up.
+const ENVELOPE_NOISE_LEVEL: f32 = 1.0;
+
 /// How a candidate's refit fared.
 #[derive(Debug, Clone, Copy)]
 struct Verdict {
@@ -574,9 +581,9 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
             stop_reason = format!("{significant} residual component(s) left, but none traces to an effect not yet tried");
             break;
         }
-        let mut accepted = false;
-        for cand in candidates.into_iter().take(3) {
-            tried.push(tried_key(&cand.effect));
+        // One candidate's refit and verdict (and the model evaluations it cost).
+        let attempt = |cand: &Candidate| -> Result<(FitResult, Verdict, usize), LoopError> {
+            let mut evaluations = 0;
             let line_amp =
                 |f: f64| excess_line_amplitude(&target_res.meas, &sim_sig_now, &sig_res, f);
             let mut start = current.model.with_effect(cand.effect.clone(), &line_amp);
@@ -636,8 +643,12 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
                 let local_ok = explained && trial.cost < current.cost * 0.99;
                 let (b, a) = (&current.figures, &trial.figures);
                 let rel = |after: f32, before: f32| (after - before) / before.max(1e-6);
+                // The envelope error counts from its noise level up: below it the
+                // spectra agree as well as an exact model's do, and its relative
+                // change there is noise (a 0.08 → 1.0 step is a tie, not a 12-fold loss).
+                let env = |e: f32| e.max(ENVELOPE_NOISE_LEVEL);
                 let shown_ok = rel(a.psd_log_rmse_db, b.psd_log_rmse_db)
-                    + rel(a.envelope_rmse, b.envelope_rmse)
+                    + rel(env(a.envelope_rmse), env(b.envelope_rmse))
                     <= 0.0;
                 let global_ok = trial.cost < current.cost * (1.0 - cfg.min_relative_gain)
                     && (explained || !matches!(cand.effect, Effect::SecondImpactTrain { .. }));
@@ -675,31 +686,56 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
                     }
                 }
             }
-            let Verdict {
-                passes,
-                explained,
-                shown_ok,
-            } = verdict;
-            let (b, a) = (&current.figures, &trial.figures);
-            if passes {
-                steps.push(LoopStep {
-                    effect: cand.effect.name().to_string(),
-                    detail: cand.effect,
-                    evidence: cand.evidence,
-                    params: trial.model.physical(),
-                    error_before: current.figures,
-                    error_after: trial.figures,
-                    cost_before: current.cost,
-                    cost_after: trial.cost,
-                });
-                current = trial;
-                accepted = true;
+            Ok((trial, verdict, evaluations))
+        };
+        let rejection = |cand: &Candidate, trial: &FitResult, reason: String| RejectedCandidate {
+            effect: cand.effect.name().to_string(),
+            evidence: cand.evidence.clone(),
+            cost_before: current.cost,
+            cost_after: trial.cost,
+            reason,
+        };
+        let mut kept: Option<(Candidate, FitResult)> = None;
+        for (i, cand) in candidates.iter().take(3).enumerate() {
+            tried.push(tried_key(&cand.effect));
+            let (trial, verdict, n) = attempt(cand)?;
+            evaluations += n;
+            if verdict.passes {
+                // Rivals: later candidates that explain some of the same lines by another
+                // mechanism (a shaft-order line as a force through the bearing or as a
+                // tone by another path). Each is fitted too, and replaces the first only
+                // when it passes and fits clearly better (cost 1 % lower): the first to
+                // pass is only the first tried, but where the record cannot tell the
+                // two apart (a weak 1× force modulates the impacts too little to show)
+                // the one the tracer ranks first — the common cause — stays.
+                let mut best = (cand.clone(), trial);
+                for rival in candidates[i + 1..]
+                    .iter()
+                    .filter(|r| shares_evidence(r, cand))
+                {
+                    tried.push(tried_key(&rival.effect));
+                    let (rt, rv, n) = attempt(rival)?;
+                    evaluations += n;
+                    let (loser, lost, winner) = if rv.passes && rt.cost < 0.99 * best.1.cost {
+                        let old = std::mem::replace(&mut best, (rival.clone(), rt));
+                        (old.0, old.1, best.0.effect.name())
+                    } else {
+                        (rival.clone(), rt, best.0.effect.name())
+                    };
+                    let reason = format!(
+                        "the same lines are explained by {winner} as well or better (cost {:.3} against {:.3})",
+                        best.1.cost, lost.cost
+                    );
+                    rejected.push(rejection(&loser, &lost, reason));
+                }
+                kept = Some(best);
                 break;
             }
-            let reason = if shown_ok {
+            let (b, a) = (&current.figures, &trial.figures);
+            let reason = if verdict.shown_ok {
                 format!(
                     "the error falls too little (its own evidence {}explained)",
-                    if explained { "" } else { "not " }
+                    if verdict.explained { "" } else { "not " }
                 )
             } else {
                 format!(
@@ -707,13 +743,21 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
                     b.psd_log_rmse_db, a.psd_log_rmse_db, b.envelope_rmse, a.envelope_rmse
                 )
             };
-            rejected.push(RejectedCandidate {
+            rejected.push(rejection(cand, &trial, reason));
+        }
+        let accepted = kept.is_some();
+        if let Some((cand, trial)) = kept {
+            steps.push(LoopStep {
                 effect: cand.effect.name().to_string(),
+                detail: cand.effect,
                 evidence: cand.evidence,
+                params: trial.model.physical(),
+                error_before: current.figures,
+                error_after: trial.figures,
                 cost_before: current.cost,
                 cost_after: trial.cost,
-                reason,
             });
+            current = trial;
         }
         if !accepted {
             stop_reason = "no candidate effect passed: each lowered the error too little, or raised the PSD and envelope errors on balance (see `rejected`)".into();
@@ -747,6 +791,16 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
         residual: last_analysis,
     };
     Ok((report, artifacts))
+}
+
+/// Whether `a` and `b` name a residual line in common (same domain, within 1e-6 Hz).
+fn shares_evidence(a: &Candidate, b: &Candidate) -> bool {
+    a.evidence.components.iter().any(|x| {
+        b.evidence
+            .components
+            .iter()
+            .any(|y| x.domain == y.domain && (x.f_hz - y.f_hz).abs() < 1e-6)
+    })
 }
 
 /// What a tried candidate is remembered by: its name, and for a structural mode its

@@ -35,11 +35,14 @@ pub enum Injected {
     /// Impacts at 4.37 x the shaft rate, no rate of the bearing (a neighbouring machine,
     /// a loose part struck at a fixed rate).
     UnknownImpacts,
+    /// A pump's vane pass: tones at 7× and 14× the shaft rate (a seven-vane impeller)
+    /// that reach the sensor through the casing, not through the bearing's contact.
+    VanePass,
 }
 
 impl Injected {
     /// Every injectable effect except the control.
-    pub const EFFECTS: [Injected; 10] = [
+    pub const EFFECTS: [Injected; 11] = [
         Injected::ShaftHarmonics,
         Injected::LoadZoneModulation,
         Injected::Slip,
@@ -50,6 +53,7 @@ impl Injected {
         Injected::UnknownPeriodic,
         Injected::SecondDefect,
         Injected::UnknownImpacts,
+        Injected::VanePass,
     ];
 
     /// The effect name the loop should report.
@@ -65,6 +69,7 @@ impl Injected {
             Injected::NonlinearStiffness => Some("nonlinear_stiffness"),
             Injected::UnknownPeriodic => Some("unexplained_periodic"),
             Injected::SecondDefect | Injected::UnknownImpacts => Some("second_impact_train"),
+            Injected::VanePass => Some("shaft_order_tones"),
         }
     }
 }
@@ -144,6 +149,11 @@ pub fn generate(
             spec.params.stiffness_nl_radial = 0.16 * s * spec.params.stiffness_radial / 1e-14;
         }
         Injected::UnknownPeriodic => spec.extra.output_lines = vec![(437.3, 0.05 * s as f32)],
+        Injected::VanePass => {
+            let vpf = 7.0 * f64::from(RPM) / 60.0;
+            let a = 0.08 * s as f32;
+            spec.extra.output_lines = vec![(vpf, a), (2.0 * vpf, 0.4 * a)];
+        }
         Injected::SecondDefect | Injected::UnknownImpacts => {
             let shaft = f64::from(RPM) / 60.0;
             let (rate, depth) = if effect == Injected::SecondDefect {

@@ -14,6 +14,7 @@
 //! | effect | term | parameters |
 //! |---|---|---|
 //! | `shaft_harmonics` | eq. 19 sinusoids at k·f_r in the force | ln A_k per order |
+//! | `shaft_order_tones` | output-side sinusoids at k·f_r: a tone that reaches the sensor by another path than the bearing's contact (a pump's vane pass, a coupling's or gear's mesh), so it loads no rolling element | ln A_k per order |
 //! | `load_zone_modulation` | impact amplitude × (1 − δ + δ(1 + cos 2πf_mod t)/2) | logit δ |
 //! | `slip` | random impact timing, σ = jitter·T | ln jitter |
 //! | `speed_drift` | rate × (1 + d·t) for impacts and shaft terms | d |
@@ -51,6 +52,18 @@ const X_REF_M: f64 = 1.0e-6;
 pub enum Effect {
     /// Force sinusoids at these shaft orders.
     ShaftHarmonics {
+        /// Orders k of k·f_r.
+        orders: Vec<u32>,
+    },
+    /// Output-side sinusoids at these shaft orders: tones locked to the shaft that reach
+    /// the sensor by another path than the bearing's rolling contact (a pump impeller's
+    /// vane pass, a coupling's or a gear's mesh), so they do not load the rolling
+    /// elements and leave the impacts unmodulated. The force-side
+    /// [`Effect::ShaftHarmonics`] puts a large low-order force through the contact's
+    /// Hertzian stiffness and modulates the impacts at its rate; a measurement whose
+    /// envelope carries no such modulation rejects it, and these tones are the
+    /// alternative the loop then tries.
+    ShaftOrderTones {
         /// Orders k of k·f_r.
         orders: Vec<u32>,
     },
@@ -115,6 +128,7 @@ impl Effect {
     pub fn name(&self) -> &'static str {
         match self {
             Effect::ShaftHarmonics { .. } => "shaft_harmonics",
+            Effect::ShaftOrderTones { .. } => "shaft_order_tones",
             Effect::LoadZoneModulation { .. } => "load_zone_modulation",
             Effect::Slip => "slip",
             Effect::SpeedDrift { .. } => "speed_drift",
@@ -167,6 +181,10 @@ impl Effect {
                     let amp = line_amp(f).map_or(1.0, |a| a / force_gain(f).max(1e-30));
                     (format!("ln_shaft_amp_{k}x"), amp.max(1e-6).ln())
                 })
+                .collect(),
+            Effect::ShaftOrderTones { orders } => orders
+                .iter()
+                .map(|k| (format!("ln_tone_amp_{k}x"), amp_or(shaft * f64::from(*k))))
                 .collect(),
             Effect::LoadZoneModulation { .. } => vec![("logit_modulation_depth".into(), 0.0)],
             Effect::Slip => vec![("ln_jitter".into(), (0.005f64).ln())],
@@ -660,6 +678,17 @@ impl TwinModel {
         {
             for (f, param) in freqs.iter().zip(p) {
                 add_sine(*f, param.value.exp(), 0.1 * f);
+            }
+        }
+        if let Some((Effect::ShaftOrderTones { orders }, p)) =
+            self.effect_params("shaft_order_tones")
+        {
+            for (k, param) in orders.iter().zip(p) {
+                add_sine(
+                    shaft * f64::from(*k),
+                    param.value.exp(),
+                    0.5 * f64::from(*k),
+                );
             }
         }
         if let Some((Effect::UnexplainedPeriodic { f_hz, .. }, p)) =

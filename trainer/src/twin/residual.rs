@@ -251,7 +251,8 @@ pub fn significant_components(
 /// `k·rate ± m·f_mod` when the model modulates, each within two bins plus the spread a
 /// modelled speed drift gives tooth k over a record of `span_s`? A small rate mismatch
 /// moves high-order teeth by a bin and leaves ± spikes there, which are the fault
-/// term's misfit, not a missing effect.
+/// term's misfit, not a missing effect. A line on a low shaft order that lies nearer
+/// the order than the tooth is not the comb's (in the body).
 pub fn on_model_comb(model: &TwinModel, c: &Component, df: f64, span_s: f64) -> bool {
     if c.kind != "line" {
         return false;
@@ -277,17 +278,33 @@ pub fn on_model_comb(model: &TwinModel, c: &Component, df: f64, span_s: f64) -> 
         let r = f64::from(freqs.impact_rate(loc)) * (1.0 + model.get("rate_factor").unwrap_or(0.0));
         combs.push((r, sideband));
     }
-    combs.iter().any(|&(r, side)| {
-        (-2i32..=2).any(|m| {
-            if m != 0 && side == 0.0 {
-                return false;
-            }
-            let f = c.f_hz - f64::from(m) * side;
-            let k = (f / r).round();
-            k >= 1.0
-                && (f - k * r).abs() <= 2.0 * df + 0.002 * c.f_hz + 0.5 * k * r * drift * span_s
+    // The distance to the nearest tooth (or sideband) within tolerance.
+    let offset = combs
+        .iter()
+        .flat_map(|&(r, side)| {
+            (-2i32..=2).filter_map(move |m| {
+                if m != 0 && side == 0.0 {
+                    return None;
+                }
+                let f = c.f_hz - f64::from(m) * side;
+                let k = (f / r).round();
+                let off = (f - k * r).abs();
+                (k >= 1.0 && off <= 2.0 * df + 0.002 * c.f_hz + 0.5 * k * r * drift * span_s)
+                    .then_some(off)
+            })
         })
-    })
+        .min_by(f64::total_cmp);
+    // A line on a shaft order (1–40×, within half a bin: the interpolated frequency is
+    // good to a tenth of one) and nearer it than to the tooth by half a bin or more is
+    // the shaft's, not the comb's misfit: a vane-pass or misalignment line a bin or two
+    // from a defect harmonic (7 × 29.95 Hz = 209.7 Hz beside 2 × BPFO = 214.8 Hz at
+    // 1797 rpm). A tooth that itself lies on a shaft order (a train of k impacts per
+    // turn) keeps its lines.
+    let shaft = f64::from(freqs.shaft);
+    let k = (c.f_hz / shaft).round();
+    let order_off = (c.f_hz - k * shaft).abs();
+    let on_order = (1.0..=40.0).contains(&k) && order_off <= 0.5 * df;
+    offset.is_some_and(|off| !(on_order && order_off + 0.5 * df < off))
 }
 
 /// Everything the tracer looks at.
@@ -924,29 +941,61 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
             }
         }
     }
-    if !has(model, "shaft_harmonics") {
-        let members: Vec<usize> = (0..lines.len())
-            .filter(|&i| !used[i] && is_order(lines[i]) && lines[i].order < 12.5)
-            .collect();
-        if !members.is_empty() {
-            let comps: Vec<Component> = members.iter().map(|&i| lines[i].clone()).collect();
-            members.iter().for_each(|&i| used[i] = true);
-            let mut orders: Vec<u32> = comps.iter().map(|c| c.order.round() as u32).collect();
-            orders.sort_unstable();
-            orders.dedup();
-            let strength = comps.iter().map(|c| c.excess_db).fold(0.0, f32::max);
-            out.push(Candidate {
-                effect: Effect::ShaftHarmonics {
-                    orders: orders.clone(),
-                },
-                evidence: evidence(
-                    format!("line(s) at shaft orders {orders:?} (f_r = {shaft:.2} Hz)"),
-                    comps,
-                ),
-                strength,
-                check: Check::Lines,
-            });
-        }
+    // Lines at shaft orders. Up to 12× they are first offered as a force through the
+    // bearing (unbalance, misalignment: `shaft_harmonics`); every order line (to 40×)
+    // is also offered, weaker, as tones that reach the sensor by another path
+    // (`shaft_order_tones`: a pump's vane pass, a mesh), so when the force is rejected —
+    // its Hertzian contact modulates the impacts at the tone's rate, and a measurement
+    // whose envelope lacks that says the tone never loaded the bearing — the tones get
+    // their turn in the same round. Lines above 12× go to the tones alone.
+    let order_lines: Vec<usize> = (0..lines.len())
+        .filter(|&i| !used[i] && is_order(lines[i]))
+        .collect();
+    let family = |members: &[usize]| {
+        let comps: Vec<Component> = members.iter().map(|&i| lines[i].clone()).collect();
+        let mut orders: Vec<u32> = comps.iter().map(|c| c.order.round() as u32).collect();
+        orders.sort_unstable();
+        orders.dedup();
+        let strength = comps.iter().map(|c| c.excess_db).fold(0.0, f32::max);
+        (comps, orders, strength)
+    };
+    let force: Vec<usize> = order_lines
+        .iter()
+        .copied()
+        .filter(|&i| lines[i].order < 12.5)
+        .collect();
+    if !force.is_empty() && !has(model, "shaft_harmonics") {
+        force.iter().for_each(|&i| used[i] = true);
+        let (comps, orders, strength) = family(&force);
+        out.push(Candidate {
+            effect: Effect::ShaftHarmonics {
+                orders: orders.clone(),
+            },
+            evidence: evidence(
+                format!("line(s) at shaft orders {orders:?} (f_r = {shaft:.2} Hz): a force at the shaft's orders through the bearing (unbalance, misalignment)"),
+                comps,
+            ),
+            strength,
+            check: Check::Lines,
+        });
+    }
+    if !order_lines.is_empty() && !has(model, "shaft_order_tones") {
+        let offered_as_force =
+            order_lines.iter().any(|i| force.contains(i)) && !has(model, "shaft_harmonics");
+        order_lines.iter().for_each(|&i| used[i] = true);
+        let (comps, orders, strength) = family(&order_lines);
+        out.push(Candidate {
+            effect: Effect::ShaftOrderTones {
+                orders: orders.clone(),
+            },
+            evidence: evidence(
+                format!("line(s) at shaft orders {orders:?} (f_r = {shaft:.2} Hz) as tones that do not load the bearing: a vane or blade pass (vanes x shaft rate), a coupling's or gear's mesh{}", if offered_as_force { ", the alternative to a force through the bearing" } else { "" }),
+                comps,
+            ),
+            // Below the force, so that the force is tried first.
+            strength: if offered_as_force { strength - 1.0 } else { strength },
+            check: Check::Lines,
+        });
     }
     if !has(model, "unexplained_periodic") {
         if let Some(i) = (0..lines.len())
