@@ -88,8 +88,9 @@ pub struct SimulationSpec {
 /// closed-loop tests inject without telling the loop.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct ExtraTerms {
-    /// Force sinusoids `(shaft order, amplitude N)` besides the 1× unbalance.
-    pub shaft_harmonics: Vec<(u32, f64)>,
+    /// Force sinusoids `(shaft order, amplitude N)` besides the 1× unbalance; an order
+    /// may be fractional (the half orders of a loose mount or a rub).
+    pub shaft_harmonics: Vec<(f64, f64)>,
     /// Output-side sinusoids `(Hz, amplitude in output units)` on every node.
     pub output_lines: Vec<(f64, f32)>,
     /// Linear speed drift (fraction per second) of impacts and shaft terms.
@@ -250,8 +251,8 @@ pub fn simulate(spec: &SimulationSpec) -> Result<Recording, SimError> {
     for &(order, amplitude) in &spec.extra.shaft_harmonics {
         let s = ShaftSinusoid {
             amplitude,
-            shaft_hz: shaft_hz * f64::from(order),
-            phase_rad: 1.1 * f64::from(order),
+            shaft_hz: shaft_hz * order,
+            phase_rad: 1.1 * order,
             drift_per_s: spec.extra.speed_drift_per_s,
         };
         s.add_to(grid, 1.0, &mut force_r)?;

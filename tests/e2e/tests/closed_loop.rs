@@ -114,6 +114,32 @@ effect_tests! {
     second_defect: Injected::SecondDefect,
     unknown_impacts: Injected::UnknownImpacts,
     vane_pass: Injected::VanePass,
+    looseness: Injected::Looseness,
+}
+
+/// Looseness (generator: a force of 300, 250, 200 and 150 N at 0.5×, 1.5×, 2.5× and
+/// 3.5× the shaft rate; 0.5× = 15 Hz lies below the compared band) is named for its
+/// half orders — 3.5× = 104.8 Hz beside BPFO = 107.4 Hz included — and sized within
+/// 15 %, and the residual left is noise-like.
+#[test]
+fn looseness_is_named_by_its_half_orders_and_sized() {
+    let report = loop_on(Injected::Looseness, Strength::Realistic, 21);
+    let step = report.steps.first().expect("an effect");
+    assert_eq!(
+        step.detail,
+        Effect::HalfOrders {
+            orders: vec![1.5, 2.5, 3.5]
+        }
+    );
+    for (h, truth) in [("1.5", 250.0), ("2.5", 200.0), ("3.5", 150.0)] {
+        let key = format!("half_order_amp_{h}x");
+        let got = step.params[&key].as_f64().expect("amplitude");
+        assert!(
+            (got / truth - 1.0).abs() < 0.15,
+            "{key}: {got} N, truth {truth} N"
+        );
+    }
+    assert!(report.residual_noise_like, "{}", report.stop_reason);
 }
 
 /// A second impact train is named for what its rate matches and sized, whatever its

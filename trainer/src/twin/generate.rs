@@ -38,11 +38,14 @@ pub enum Injected {
     /// A pump's vane pass: tones at 7× and 14× the shaft rate (a seven-vane impeller)
     /// that reach the sensor through the casing, not through the bearing's contact.
     VanePass,
+    /// Mechanical looseness: a force at the half orders 0.5×, 1.5×, 2.5× and 3.5× of the
+    /// shaft rate (the rotor lifts and settles once every two turns).
+    Looseness,
 }
 
 impl Injected {
     /// Every injectable effect except the control.
-    pub const EFFECTS: [Injected; 11] = [
+    pub const EFFECTS: [Injected; 12] = [
         Injected::ShaftHarmonics,
         Injected::LoadZoneModulation,
         Injected::Slip,
@@ -54,6 +57,7 @@ impl Injected {
         Injected::SecondDefect,
         Injected::UnknownImpacts,
         Injected::VanePass,
+        Injected::Looseness,
     ];
 
     /// The effect name the loop should report.
@@ -70,6 +74,7 @@ impl Injected {
             Injected::UnknownPeriodic => Some("unexplained_periodic"),
             Injected::SecondDefect | Injected::UnknownImpacts => Some("second_impact_train"),
             Injected::VanePass => Some("shaft_order_tones"),
+            Injected::Looseness => Some("half_orders"),
         }
     }
 }
@@ -127,7 +132,7 @@ pub fn generate(
     match effect {
         Injected::None => {}
         Injected::ShaftHarmonics => {
-            spec.extra.shaft_harmonics = vec![(1, 400.0 * s), (2, 250.0 * s)];
+            spec.extra.shaft_harmonics = vec![(1.0, 400.0 * s), (2.0, 250.0 * s)];
         }
         Injected::LoadZoneModulation => spec.modulation_depth = 0.8 * s,
         Injected::Slip => spec.jitter = 0.012 * s,
@@ -149,6 +154,11 @@ pub fn generate(
             spec.params.stiffness_nl_radial = 0.16 * s * spec.params.stiffness_radial / 1e-14;
         }
         Injected::UnknownPeriodic => spec.extra.output_lines = vec![(437.3, 0.05 * s as f32)],
+        Injected::Looseness => {
+            spec.extra.shaft_harmonics = [(0.5, 300.0), (1.5, 250.0), (2.5, 200.0), (3.5, 150.0)]
+                .map(|(h, a)| (h, a * s))
+                .to_vec();
+        }
         Injected::VanePass => {
             let vpf = 7.0 * f64::from(RPM) / 60.0;
             let a = 0.08 * s as f32;

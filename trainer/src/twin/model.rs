@@ -14,6 +14,7 @@
 //! | effect | term | parameters |
 //! |---|---|---|
 //! | `shaft_harmonics` | eq. 19 sinusoids at k·f_r in the force | ln A_k per order |
+//! | `half_orders` | eq. 19 sinusoids at (k + ½)·f_r in the force: a loose mount or a rub, the rotor lifting or striking once every two turns | ln A per half order |
 //! | `shaft_order_tones` | output-side sinusoids at k·f_r: a tone that reaches the sensor by another path than the bearing's contact (a pump's vane pass, a coupling's or gear's mesh), so it loads no rolling element | ln A_k per order |
 //! | `load_zone_modulation` | impact amplitude × (1 − δ + δ(1 + cos 2πf_mod t)/2) | logit δ |
 //! | `slip` | random impact timing, σ = jitter·T | ln jitter |
@@ -54,6 +55,14 @@ pub enum Effect {
     ShaftHarmonics {
         /// Orders k of k·f_r.
         orders: Vec<u32>,
+    },
+    /// Force sinusoids at half orders of the shaft rate (0.5×, 1.5×, 2.5×, …): mechanical
+    /// looseness of the bearing's seat or mount, or a rub — the rotor lifts and settles,
+    /// or strikes, once every two turns, so the force repeats every second turn. It
+    /// acts through the bearing, like [`Effect::ShaftHarmonics`].
+    HalfOrders {
+        /// Orders k + ½ of (k + ½)·f_r.
+        orders: Vec<f64>,
     },
     /// Output-side sinusoids at these shaft orders: tones locked to the shaft that reach
     /// the sensor by another path than the bearing's rolling contact (a pump impeller's
@@ -129,6 +138,7 @@ impl Effect {
         match self {
             Effect::ShaftHarmonics { .. } => "shaft_harmonics",
             Effect::ShaftOrderTones { .. } => "shaft_order_tones",
+            Effect::HalfOrders { .. } => "half_orders",
             Effect::LoadZoneModulation { .. } => "load_zone_modulation",
             Effect::Slip => "slip",
             Effect::SpeedDrift { .. } => "speed_drift",
@@ -180,6 +190,14 @@ impl Effect {
                     let f = shaft * f64::from(*k);
                     let amp = line_amp(f).map_or(1.0, |a| a / force_gain(f).max(1e-30));
                     (format!("ln_shaft_amp_{k}x"), amp.max(1e-6).ln())
+                })
+                .collect(),
+            Effect::HalfOrders { orders } => orders
+                .iter()
+                .map(|h| {
+                    let f = shaft * h;
+                    let amp = line_amp(f).map_or(1.0, |a| a / force_gain(f).max(1e-30));
+                    (format!("ln_half_order_amp_{h}x"), amp.max(1e-6).ln())
                 })
                 .collect(),
             Effect::ShaftOrderTones { orders } => orders
@@ -559,6 +577,17 @@ impl TwinModel {
                     amplitude: param.value.exp(),
                     shaft_hz: shaft * f64::from(*k),
                     phase_rad: 0.3 * f64::from(*k),
+                    drift_per_s: drift,
+                };
+                s.add_to(grid, 1.0, &mut force_r)?;
+            }
+        }
+        if let Some((Effect::HalfOrders { orders }, p)) = self.effect_params("half_orders") {
+            for (h, param) in orders.iter().zip(p) {
+                let s = ShaftSinusoid {
+                    amplitude: param.value.exp(),
+                    shaft_hz: shaft * h,
+                    phase_rad: 0.3 * h,
                     drift_per_s: drift,
                 };
                 s.add_to(grid, 1.0, &mut force_r)?;

@@ -294,16 +294,16 @@ pub fn on_model_comb(model: &TwinModel, c: &Component, df: f64, span_s: f64) -> 
             })
         })
         .min_by(f64::total_cmp);
-    // A line on a shaft order (1–40×, within half a bin: the interpolated frequency is
-    // good to a tenth of one) and nearer it than to the tooth by half a bin or more is
-    // the shaft's, not the comb's misfit: a vane-pass or misalignment line a bin or two
-    // from a defect harmonic (7 × 29.95 Hz = 209.7 Hz beside 2 × BPFO = 214.8 Hz at
+    // A line on a shaft order or half order (½–40×, within half a bin: the interpolated
+    // frequency is good to a tenth of one) and nearer it than to the tooth by half a bin
+    // or more is the shaft's, not the comb's misfit: a vane-pass, misalignment or
+    // looseness line a bin or two from a defect harmonic (7 × 29.95 Hz = 209.7 Hz beside 2 × BPFO = 214.8 Hz at
     // 1797 rpm). A tooth that itself lies on a shaft order (a train of k impacts per
     // turn) keeps its lines.
-    let shaft = f64::from(freqs.shaft);
-    let k = (c.f_hz / shaft).round();
-    let order_off = (c.f_hz - k * shaft).abs();
-    let on_order = (1.0..=40.0).contains(&k) && order_off <= 0.5 * df;
+    let half = 0.5 * f64::from(freqs.shaft);
+    let k = (c.f_hz / half).round();
+    let order_off = (c.f_hz - k * half).abs();
+    let on_order = (1.0..=80.0).contains(&k) && order_off <= 0.5 * df;
     offset.is_some_and(|off| !(on_order && order_off + 0.5 * df < off))
 }
 
@@ -996,6 +996,38 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
             strength: if offered_as_force { strength - 1.0 } else { strength },
             check: Check::Lines,
         });
+    }
+    // Lines at half orders (k + ½)·f_r up to 12.5×, two or more of them: a force that
+    // repeats every second turn — a loose seat or mount, a rub. One such line alone is
+    // left to the fallback (a tone that happens to sit there).
+    if !has(model, "half_orders") {
+        let members: Vec<usize> = (0..lines.len())
+            .filter(|&i| {
+                let c = lines[i];
+                let h = (c.order - 0.5).round() + 0.5;
+                !used[i] && (0.5..=12.5).contains(&h) && (c.f_hz - h * shaft).abs() < tol(c.f_hz)
+            })
+            .collect();
+        if members.len() >= 2 {
+            members.iter().for_each(|&i| used[i] = true);
+            let comps: Vec<Component> = members.iter().map(|&i| lines[i].clone()).collect();
+            let orders: Vec<f64> = comps
+                .iter()
+                .map(|c| (c.order - 0.5).round() + 0.5)
+                .collect();
+            let strength = comps.iter().map(|c| c.excess_db).fold(0.0, f32::max);
+            out.push(Candidate {
+                effect: Effect::HalfOrders {
+                    orders: orders.clone(),
+                },
+                evidence: evidence(
+                    format!("line(s) at half orders {orders:?} of the shaft (f_r = {shaft:.2} Hz): a force repeating every second turn, mechanical looseness of the bearing's seat or mount, or a rub"),
+                    comps,
+                ),
+                strength,
+                check: Check::Lines,
+            });
+        }
     }
     if !has(model, "unexplained_periodic") {
         if let Some(i) = (0..lines.len())
