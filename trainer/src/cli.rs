@@ -920,4 +920,12 @@ const KNOWN_CWRU: &str = "
   record: envelope lines at 4, 8 and 12 × the shaft rate, explained as four impacts
   per turn (`shaft_synchronous`) — a healthy bearing has no rate there, so the source
   is on the rotor side of the rig (the coupling, the dynamometer), not the bearing.
+- **Shaft-order lines**: the drive-end spectra carry lines at shaft orders 12–40 that
+  stand 10–25 dB over their neighbours (the rig's motor, coupling and dynamometer; a
+  pump adds its vane pass). Since the thirteenth session the loop reads such lines off
+  the measurement as well as off the residual, and fits them as `shaft_order_tones`
+  (tones by another path) where a force through the bearing (`shaft_harmonics`) fits
+  them no better; at most six per step, the strongest. A 60 Hz mains family would sit
+  on the shaft's even orders at 1796 rpm (2 × 29.93 Hz = 59.87 Hz), which 6 s of
+  record cannot resolve; the evidence says so when every line fits both.
 ";

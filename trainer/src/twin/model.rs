@@ -151,6 +151,19 @@ impl Effect {
         }
     }
 
+    /// Whether the effect is a term added at the sensor, after the structure (mains
+    /// lines, tones by another path, an unexplained tone or band): it has nothing to
+    /// trade with the structure's parameters but the measurement noise.
+    pub fn is_output_side(&self) -> bool {
+        matches!(
+            self,
+            Effect::ShaftOrderTones { .. }
+                | Effect::LineInterference { .. }
+                | Effect::UnexplainedPeriodic { .. }
+                | Effect::UnexplainedBand { .. }
+        )
+    }
+
     /// The bearing defect a second impact train's rate was named for (`None` for any
     /// other effect, and for a train from elsewhere: a rub, a struck part). Its load
     /// zone modulates it as it does that defect: at the core's
@@ -487,8 +500,112 @@ impl TwinModel {
         self.effects_of(kind).into_iter().next()
     }
 
-    /// Simulate `n_out` samples at the record's rate with PRNG `seed`.
+    /// Simulate `n_keep` samples at the record's rate with PRNG `seed`.
+    ///
+    /// The structure's response (the RK4 simulation, the measurement chain) depends only
+    /// on the structural parameters; the output-side terms (tones, lines, band noise,
+    /// measurement noise) are added to it. A finite-difference Jacobian perturbs one
+    /// parameter at a time, so the last structural response is kept per thread and
+    /// reused when only output-side parameters changed: the same samples, bit for bit,
+    /// without the simulation.
     pub fn render(&self, n_keep: usize, seed: u64) -> Result<Vec<f32>, pumptwin_core::Error> {
+        use std::cell::RefCell;
+        use std::rc::Rc;
+        type Cached = (String, Rc<Structure>);
+        thread_local! {
+            static LAST: RefCell<Option<Cached>> = const { RefCell::new(None) };
+        }
+        let key = self.structure_key(n_keep, seed);
+        let hit = LAST.with(|c| {
+            c.borrow()
+                .as_ref()
+                .filter(|(k, _)| *k == key)
+                .map(|(_, v)| v.clone())
+        });
+        let structure = match hit {
+            Some(v) => v,
+            None => {
+                let v = Rc::new(self.render_structure(n_keep, seed)?);
+                LAST.with(|c| *c.borrow_mut() = Some((key, v.clone())));
+                v
+            }
+        };
+        let Structure {
+            y,
+            rng,
+            shaft,
+            drift,
+        } = &*structure;
+        let (mut y, mut rng, shaft, drift) = (y.clone(), rng.clone(), *shaft, *drift);
+        let fs = f64::from(self.op.fs_hz);
+
+        // Output-side terms.
+        let mut add_sine = |f: f64, amp: f64, phase: f64| {
+            for (j, v) in y.iter_mut().enumerate() {
+                let t = j as f64 / fs;
+                *v += (amp
+                    * (2.0 * std::f64::consts::PI * f * (t + 0.5 * drift * t * t) + phase).sin())
+                    as f32;
+            }
+        };
+        if let Some((Effect::LineInterference { freqs }, p)) =
+            self.effect_params("line_interference")
+        {
+            for (f, param) in freqs.iter().zip(p) {
+                add_sine(*f, param.value.exp(), 0.1 * f);
+            }
+        }
+        if let Some((Effect::ShaftOrderTones { orders }, p)) =
+            self.effect_params("shaft_order_tones")
+        {
+            for (k, param) in orders.iter().zip(p) {
+                add_sine(
+                    shaft * f64::from(*k),
+                    param.value.exp(),
+                    0.5 * f64::from(*k),
+                );
+            }
+        }
+        if let Some((Effect::UnexplainedPeriodic { f_hz, .. }, p)) =
+            self.effect_params("unexplained_periodic")
+        {
+            add_sine(*f_hz, p[0].value.exp(), 0.7);
+        }
+        if let Some((Effect::UnexplainedBand { f_hz, bandwidth_hz }, p)) =
+            self.effect_params("unexplained_band")
+        {
+            add_band_noise(&mut y, fs, *f_hz, *bandwidth_hz, p[0].value.exp(), &mut rng);
+        }
+        let noise = self.get("ln_meas_noise").map_or(0.0, f64::exp);
+        let unit_y = unit_normals(y.len(), seed ^ 0x0_15E);
+        for (j, v) in y.iter_mut().enumerate() {
+            *v += (noise * unit_y[j]) as f32;
+        }
+        Ok(y)
+    }
+
+    /// What identifies the structural response: the operating point, the fault, the
+    /// effects and every parameter that is not output-side ([`is_output_side`]).
+    fn structure_key(&self, n_keep: usize, seed: u64) -> String {
+        use std::fmt::Write;
+        let mut key = format!(
+            "{n_keep}|{seed}|{:?}|{:?}|{:?}",
+            self.op, self.fault, self.effects
+        );
+        for p in self.params.iter().filter(|p| !is_output_side(&p.name)) {
+            let _ = write!(key, "|{}={:x}", p.name, p.value.to_bits());
+        }
+        key
+    }
+
+    /// The structure's response to the forces, through the measurement chain, before
+    /// the output-side terms: `n_keep` samples, the PRNG as the forces left it, and the
+    /// drift-centred shaft rate and drift the output-side terms follow.
+    fn render_structure(
+        &self,
+        n_keep: usize,
+        seed: u64,
+    ) -> Result<Structure, pumptwin_core::Error> {
         let fs = f64::from(self.op.fs_hz);
         // Warm-up simulated and dropped (no switch-on transient), as in `crate::sim`.
         let n_warm = (WARMUP_S * fs) as usize;
@@ -692,51 +809,35 @@ impl TwinModel {
         filter_decimate(&y_aa, &band, 1, &mut y)?;
         y.truncate(n_out);
         y.drain(..n_warm);
-
-        // Output-side terms.
-        let mut add_sine = |f: f64, amp: f64, phase: f64| {
-            for (j, v) in y.iter_mut().enumerate() {
-                let t = j as f64 / fs;
-                *v += (amp
-                    * (2.0 * std::f64::consts::PI * f * (t + 0.5 * drift * t * t) + phase).sin())
-                    as f32;
-            }
-        };
-        if let Some((Effect::LineInterference { freqs }, p)) =
-            self.effect_params("line_interference")
-        {
-            for (f, param) in freqs.iter().zip(p) {
-                add_sine(*f, param.value.exp(), 0.1 * f);
-            }
-        }
-        if let Some((Effect::ShaftOrderTones { orders }, p)) =
-            self.effect_params("shaft_order_tones")
-        {
-            for (k, param) in orders.iter().zip(p) {
-                add_sine(
-                    shaft * f64::from(*k),
-                    param.value.exp(),
-                    0.5 * f64::from(*k),
-                );
-            }
-        }
-        if let Some((Effect::UnexplainedPeriodic { f_hz, .. }, p)) =
-            self.effect_params("unexplained_periodic")
-        {
-            add_sine(*f_hz, p[0].value.exp(), 0.7);
-        }
-        if let Some((Effect::UnexplainedBand { f_hz, bandwidth_hz }, p)) =
-            self.effect_params("unexplained_band")
-        {
-            add_band_noise(&mut y, fs, *f_hz, *bandwidth_hz, p[0].value.exp(), &mut rng);
-        }
-        let noise = get("ln_meas_noise").map_or(0.0, f64::exp);
-        let unit_y = unit_normals(y.len(), seed ^ 0x0_15E);
-        for (j, v) in y.iter_mut().enumerate() {
-            *v += (noise * unit_y[j]) as f32;
-        }
-        Ok(y)
+        Ok(Structure {
+            y,
+            rng,
+            shaft,
+            drift,
+        })
     }
+}
+
+/// The structural part of a render ([`TwinModel::render`]).
+struct Structure {
+    /// Samples at the record's rate, warm-up dropped.
+    y: Vec<f32>,
+    /// The PRNG after the forces drew from it (the band noise draws next).
+    rng: Xoshiro128pp,
+    /// Shaft rate, centred for the drift, Hz.
+    shaft: f64,
+    /// Speed drift, fraction per second.
+    drift: f64,
+}
+
+/// Parameters of the terms added at the sensor, after the structure: the measurement
+/// noise, mains lines, tones by another path, an unexplained tone or band.
+pub(crate) fn is_output_side(name: &str) -> bool {
+    name == "ln_meas_noise"
+        || name == "ln_periodic_amp"
+        || name == "ln_band_level"
+        || name.starts_with("ln_line_amp_")
+        || name.starts_with("ln_tone_amp_")
 }
 
 /// A unit-variance Gaussian sequence of `n` values for `seed`, generated once per
