@@ -762,20 +762,37 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
             reason: format!("the refit failed from both starts ({e})"),
         };
         let mut kept: Option<(Candidate, FitResult)> = None;
-        for (i, cand) in candidates.iter().take(3).enumerate() {
-            if evaluations >= cfg.max_evaluations {
-                budget_spent = true;
-                break;
+        // A candidate tried within the budget: `None` when the budget is spent (and
+        // nothing tried) or when its refit failed (and it is rejected for that).
+        let try_one = |cand: &Candidate,
+                       tried: &mut Vec<String>,
+                       evaluations: &mut usize,
+                       rejected: &mut Vec<RejectedCandidate>,
+                       budget_spent: &mut bool|
+         -> Option<(FitResult, Verdict)> {
+            if *evaluations >= cfg.max_evaluations {
+                *budget_spent = true;
+                return None;
             }
             tried.push(tried_key(&cand.effect));
             let (outcome, n) = attempt(cand);
-            evaluations += n;
-            let (trial, verdict) = match outcome {
-                Ok(tv) => tv,
-                Err(e) => {
-                    rejected.push(refit_failed(cand, &e));
-                    continue;
+            *evaluations += n;
+            outcome
+                .map_err(|e| rejected.push(refit_failed(cand, &e)))
+                .ok()
+        };
+        for (i, cand) in candidates.iter().take(3).enumerate() {
+            let Some((trial, verdict)) = try_one(
+                cand,
+                &mut tried,
+                &mut evaluations,
+                &mut rejected,
+                &mut budget_spent,
+            ) else {
+                if budget_spent {
+                    break;
                 }
+                continue;
             };
             if verdict.passes {
                 // Rivals: later candidates that explain some of the same lines by another
@@ -790,19 +807,17 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
                     .iter()
                     .filter(|r| shares_evidence(r, cand))
                 {
-                    if evaluations >= cfg.max_evaluations {
-                        budget_spent = true;
-                        break;
-                    }
-                    tried.push(tried_key(&rival.effect));
-                    let (outcome, n) = attempt(rival);
-                    evaluations += n;
-                    let (rt, rv) = match outcome {
-                        Ok(tv) => tv,
-                        Err(e) => {
-                            rejected.push(refit_failed(rival, &e));
-                            continue;
+                    let Some((rt, rv)) = try_one(
+                        rival,
+                        &mut tried,
+                        &mut evaluations,
+                        &mut rejected,
+                        &mut budget_spent,
+                    ) else {
+                        if budget_spent {
+                            break;
                         }
+                        continue;
                     };
                     let (loser, lost, winner) = if rv.passes && rt.cost < 0.99 * best.1.cost {
                         let old = std::mem::replace(&mut best, (rival.clone(), rt));
