@@ -212,13 +212,22 @@ fn a_second_impact_train_is_named_and_sized() {
     }
 }
 
+/// `x` sampled at `fs_hz` plus the sinusoids `(f_hz, amplitude, phase_rad)`.
+fn add_tones(x: &mut [f32], fs_hz: f32, tones: &[(f64, f64, f64)]) {
+    for (i, v) in x.iter_mut().enumerate() {
+        let t = i as f64 / f64::from(fs_hz);
+        let add: f64 = tones
+            .iter()
+            .map(|(f, a, phase)| a * (2.0 * std::f64::consts::PI * f * t + phase).sin())
+            .sum();
+        *v += add as f32;
+    }
+}
+
 /// The clean record plus one sinusoid of `amp_g` at `f_hz`, looped.
 fn loop_with_tone(f_hz: f64, amp_g: f64) -> LoopReport {
     let mut x = generate(Injected::None, Strength::Realistic, 4.0, 41).expect("generator");
-    for (i, v) in x.iter_mut().enumerate() {
-        let t = i as f64 / f64::from(FS_HZ);
-        *v += (amp_g * (2.0 * std::f64::consts::PI * f_hz * t).sin()) as f32;
-    }
+    add_tones(&mut x, FS_HZ, &[(f_hz, amp_g, 0.0)]);
     loop_signal(x)
 }
 
@@ -271,11 +280,11 @@ fn a_mesh_order_is_named_as_a_shaft_order() {
 fn a_strong_vane_pass_beside_a_defect_harmonic_is_found() {
     let shaft = f64::from(RPM) / 60.0;
     let mut x = generate(Injected::None, Strength::Realistic, 4.0, 5).expect("generator");
-    for (i, v) in x.iter_mut().enumerate() {
-        let t = i as f64 / f64::from(FS_HZ);
-        let w = 2.0 * std::f64::consts::PI * 7.0 * shaft * t;
-        *v += (0.24 * w.sin() + 0.09 * (2.0 * w).sin()) as f32;
-    }
+    add_tones(
+        &mut x,
+        FS_HZ,
+        &[(7.0 * shaft, 0.24, 0.0), (14.0 * shaft, 0.09, 0.0)],
+    );
     let report = loop_signal(x);
     assert_eq!(
         report.steps.first().map(|s| s.detail.clone()),
@@ -391,21 +400,16 @@ fn effects_added_to_a_measured_record_are_found() {
     let de = &de[..(6.0 * rec.fs_hz) as usize];
     let rms = (de.iter().map(|v| f64::from(*v).powi(2)).sum::<f64>() / de.len() as f64).sqrt();
     let shaft = f64::from(rpm) / 60.0;
+    // Each tone at a fraction of the record's RMS, the j-th at phase j rad.
     let with = |tones: &[(f64, f64)]| -> Vec<f32> {
-        de.iter()
+        let tones: Vec<(f64, f64, f64)> = tones
+            .iter()
             .enumerate()
-            .map(|(i, v)| {
-                let t = i as f64 / f64::from(rec.fs_hz);
-                let add: f64 = tones
-                    .iter()
-                    .enumerate()
-                    .map(|(j, (f, a))| {
-                        a * rms * (2.0 * std::f64::consts::PI * f * t + j as f64).sin()
-                    })
-                    .sum();
-                v + add as f32
-            })
-            .collect()
+            .map(|(j, &(f, a))| (f, a * rms, j as f64))
+            .collect();
+        let mut x = de.to_vec();
+        add_tones(&mut x, rec.fs_hz, &tones);
+        x
     };
     let cases: [(&str, Vec<(f64, f64)>); 3] = [
         (

@@ -3,7 +3,7 @@
 //! its sampling rate, the nominal speed and the bearing geometry.
 
 use super::fit::{evaluate, fit, FitConfig, FitError, FitResult, Target};
-use super::model::{fault_name, is_output_side, Effect, OperatingPoint, TwinModel};
+use super::model::{fault_name, Effect, OperatingPoint, TwinModel};
 use super::residual::{
     analyse, evidence_gap, trace, Candidate, Check, Evidence, ResidualAnalysis, TraceContext,
 };
@@ -404,10 +404,7 @@ fn refit_with_drift(
     if !drift_known {
         return fit(start, target, cfg);
     }
-    let mut held = start.clone();
-    for p in held.params.iter_mut().filter(|p| p.name == "drift_per_s") {
-        p.step = 0.0;
-    }
+    let held = start.holding(|_, p| p.name == "drift_per_s");
     let coarse = fit(
         &held,
         target,
@@ -535,12 +532,13 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
     let (_, initial_sig) = residual_of(&first.model)?;
 
     let mut steps = Vec::new();
-    let mut rejected = Vec::new();
+    let mut trials = Trials {
+        evaluations,
+        ..Trials::default()
+    };
     let mut stop_reason = format!("reached the step limit ({})", cfg.max_steps);
     let mut residual_noise_like = false;
     let mut last_analysis;
-    let mut tried: Vec<String> = Vec::new();
-    let mut budget_spent = false;
     loop {
         let (y_sim, sim_sig) = residual_of(&current.model)?;
         let analysis = analyse(
@@ -560,7 +558,7 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
         };
         let candidates: Vec<_> = trace(&analysis, &ctx)
             .into_iter()
-            .filter(|c| !tried.contains(&tried_key(&c.effect)))
+            .filter(|c| !trials.tried.contains(&tried_key(&c.effect)))
             .collect();
         let significant = unexplained(&analysis, &current.model, &sig_res, span_s).len();
         last_analysis = analysis;
@@ -588,7 +586,7 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
         if steps.len() >= cfg.max_steps {
             break;
         }
-        if budget_spent {
+        if trials.budget_spent {
             stop_reason = format!(
                 "the evaluation budget ({} model evaluations) is spent",
                 cfg.max_evaluations
@@ -632,15 +630,12 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
                 if !output_side {
                     return refit_with_drift(m, &target, &trial_cfg, fit_cfg.n_sim, drift_known);
                 }
-                let mut held = m.clone();
-                for p in held.params.iter_mut().filter(|p| !is_output_side(&p.name)) {
-                    p.step = 0.0;
-                }
+                let mask = m.output_side();
+                let held = m.holding(|i, _| !mask[i]);
                 let mut r =
                     refit_with_drift(&held, &target, &trial_cfg, fit_cfg.n_sim, drift_known)?;
-                for (p, q) in r.model.params.iter_mut().zip(&m.params) {
-                    p.step = q.step;
-                }
+                // The fitted values, the steps of the model as it was.
+                r.model = m.with_theta(&r.model.theta());
                 Ok(r)
             };
             // Whether a refit passes: the effect must explain its own evidence (the
@@ -747,51 +742,38 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
             }
             (outcome, evaluations)
         };
-        let rejection = |cand: &Candidate, trial: &FitResult, reason: String| RejectedCandidate {
+        let rejection = |cand: &Candidate, cost_after: f32, reason: String| RejectedCandidate {
             effect: cand.effect.name().to_string(),
             evidence: cand.evidence.clone(),
             cost_before: current.cost,
-            cost_after: trial.cost,
+            cost_after,
             reason,
         };
-        let refit_failed = |cand: &Candidate, e: &str| RejectedCandidate {
-            effect: cand.effect.name().to_string(),
-            evidence: cand.evidence.clone(),
-            cost_before: current.cost,
-            cost_after: current.cost,
-            reason: format!("the refit failed from both starts ({e})"),
-        };
         let mut kept: Option<(Candidate, FitResult)> = None;
-        // A candidate tried within the budget: `None` when the budget is spent (and
-        // nothing tried) or when its refit failed (and it is rejected for that).
-        let try_one = |cand: &Candidate,
-                       tried: &mut Vec<String>,
-                       evaluations: &mut usize,
-                       rejected: &mut Vec<RejectedCandidate>,
-                       budget_spent: &mut bool|
-         -> Option<(FitResult, Verdict)> {
-            if *evaluations >= cfg.max_evaluations {
-                *budget_spent = true;
+        // A candidate tried within the budget: `None` when the budget is spent (nothing
+        // tried), `Some(None)` when its refit failed (it is rejected for that).
+        let try_one = |cand: &Candidate, t: &mut Trials| -> Option<Option<(FitResult, Verdict)>> {
+            if t.evaluations >= cfg.max_evaluations {
+                t.budget_spent = true;
                 return None;
             }
-            tried.push(tried_key(&cand.effect));
+            t.tried.push(tried_key(&cand.effect));
             let (outcome, n) = attempt(cand);
-            *evaluations += n;
-            outcome
-                .map_err(|e| rejected.push(refit_failed(cand, &e)))
-                .ok()
+            t.evaluations += n;
+            Some(
+                outcome
+                    .map_err(|e| {
+                        let reason = format!("the refit failed from both starts ({e})");
+                        t.rejected.push(rejection(cand, current.cost, reason));
+                    })
+                    .ok(),
+            )
         };
         for (i, cand) in candidates.iter().take(3).enumerate() {
-            let Some((trial, verdict)) = try_one(
-                cand,
-                &mut tried,
-                &mut evaluations,
-                &mut rejected,
-                &mut budget_spent,
-            ) else {
-                if budget_spent {
-                    break;
-                }
+            let Some(fitted) = try_one(cand, &mut trials) else {
+                break;
+            };
+            let Some((trial, verdict)) = fitted else {
                 continue;
             };
             if verdict.passes {
@@ -807,16 +789,10 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
                     .iter()
                     .filter(|r| shares_evidence(r, cand))
                 {
-                    let Some((rt, rv)) = try_one(
-                        rival,
-                        &mut tried,
-                        &mut evaluations,
-                        &mut rejected,
-                        &mut budget_spent,
-                    ) else {
-                        if budget_spent {
-                            break;
-                        }
+                    let Some(fitted) = try_one(rival, &mut trials) else {
+                        break;
+                    };
+                    let Some((rt, rv)) = fitted else {
                         continue;
                     };
                     let (loser, lost, winner) = if rv.passes && rt.cost < 0.99 * best.1.cost {
@@ -829,7 +805,7 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
                         "the same lines are explained by {winner} as well or better (cost {:.3} against {:.3})",
                         best.1.cost, lost.cost
                     );
-                    rejected.push(rejection(&loser, &lost, reason));
+                    trials.rejected.push(rejection(&loser, lost.cost, reason));
                 }
                 kept = Some(best);
                 break;
@@ -846,7 +822,7 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
                     b.psd_log_rmse_db, a.psd_log_rmse_db, b.envelope_rmse, a.envelope_rmse
                 )
             };
-            rejected.push(rejection(cand, &trial, reason));
+            trials.rejected.push(rejection(cand, trial.cost, reason));
         }
         let accepted = kept.is_some();
         if let Some((cand, trial)) = kept {
@@ -862,13 +838,13 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
             });
             current = trial;
         }
-        if budget_spent && !accepted {
+        if trials.budget_spent && !accepted {
             stop_reason = format!(
                 "the evaluation budget ({} model evaluations) is spent; candidates not tried: {}",
                 cfg.max_evaluations,
                 candidates
                     .iter()
-                    .filter(|c| !tried.contains(&tried_key(&c.effect)))
+                    .filter(|c| !trials.tried.contains(&tried_key(&c.effect)))
                     .map(|c| c.effect.name())
                     .collect::<Vec<_>>()
                     .join(", ")
@@ -892,12 +868,12 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
         error_final: current.figures,
         residual_noise_like,
         stop_reason,
-        rejected,
+        rejected: trials.rejected,
         residual_components_final: unexplained(&last_analysis, &current.model, &sig_res, span_s),
         rail_hits: None,
         clipped: false,
         seconds: t0.elapsed().as_secs_f64(),
-        evaluations,
+        evaluations: trials.evaluations,
     };
     let artifacts = LoopArtifacts {
         measured: target_res.meas,
@@ -907,6 +883,16 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
         residual: last_analysis,
     };
     Ok((report, artifacts))
+}
+
+/// What the loop has tried: the candidates' keys, the rejected ones with the reason,
+/// the model evaluations spent, and whether the budget stopped it.
+#[derive(Default)]
+struct Trials {
+    tried: Vec<String>,
+    rejected: Vec<RejectedCandidate>,
+    evaluations: usize,
+    budget_spent: bool,
 }
 
 /// Whether `a` and `b` name a residual line in common (same domain, within 1e-6 Hz).

@@ -151,6 +151,20 @@ impl Effect {
         }
     }
 
+    /// The shaft orders of a force at the shaft's orders through the bearing
+    /// (`shaft_harmonics`: k; `half_orders`: k + ½), with the prefix of its amplitude
+    /// parameters; `None` for any other effect.
+    fn force_orders(&self) -> Option<(Vec<f64>, &'static str)> {
+        match self {
+            Effect::ShaftHarmonics { orders } => Some((
+                orders.iter().map(|&k| f64::from(k)).collect(),
+                "ln_shaft_amp_",
+            )),
+            Effect::HalfOrders { orders } => Some((orders.clone(), "ln_half_order_amp_")),
+            _ => None,
+        }
+    }
+
     /// Whether the effect is a term added at the sensor, after the structure (mains
     /// lines, tones by another path, an unexplained tone or band): it has nothing to
     /// trade with the structure's parameters but the measurement noise.
@@ -197,22 +211,17 @@ impl Effect {
         let shaft = f64::from(freqs.shaft);
         let amp_or = |f: f64| line_amp(f).unwrap_or(3.0 * noise).max(1e-9).ln();
         match self {
-            Effect::ShaftHarmonics { orders } => orders
-                .iter()
-                .map(|k| {
-                    let f = shaft * f64::from(*k);
-                    let amp = line_amp(f).map_or(1.0, |a| a / force_gain(f).max(1e-30));
-                    (format!("ln_shaft_amp_{k}x"), amp.max(1e-6).ln())
-                })
-                .collect(),
-            Effect::HalfOrders { orders } => orders
-                .iter()
-                .map(|h| {
-                    let f = shaft * h;
-                    let amp = line_amp(f).map_or(1.0, |a| a / force_gain(f).max(1e-30));
-                    (format!("ln_half_order_amp_{h}x"), amp.max(1e-6).ln())
-                })
-                .collect(),
+            Effect::ShaftHarmonics { .. } | Effect::HalfOrders { .. } => {
+                let (orders, prefix) = self.force_orders().unwrap_or_default();
+                orders
+                    .iter()
+                    .map(|h| {
+                        let f = shaft * h;
+                        let amp = line_amp(f).map_or(1.0, |a| a / force_gain(f).max(1e-30));
+                        (format!("{prefix}{h}x"), amp.max(1e-6).ln())
+                    })
+                    .collect()
+            }
             Effect::ShaftOrderTones { orders } => orders
                 .iter()
                 .map(|k| (format!("ln_tone_amp_{k}x"), amp_or(shaft * f64::from(*k))))
@@ -470,18 +479,21 @@ impl TwinModel {
 
     /// Every effect of `kind` with its parameters, in the order they were added.
     pub fn effects_of(&self, kind: &str) -> Vec<(&Effect, &[Param])> {
-        self.effects
-            .iter()
-            .enumerate()
-            .filter(|(_, (e, _))| e.name() == kind)
-            .map(|(i, (e, first))| {
-                let end = self
-                    .effects
-                    .get(i + 1)
-                    .map_or(self.params.len(), |(_, f)| *f);
-                (e, &self.params[*first..end])
-            })
+        self.effect_spans()
+            .filter(|(e, _)| e.name() == kind)
+            .map(|(e, span)| (e, &self.params[span]))
             .collect()
+    }
+
+    /// Every effect with the index range of its parameters, in the order added.
+    fn effect_spans(&self) -> impl Iterator<Item = (&Effect, std::ops::Range<usize>)> + '_ {
+        self.effects.iter().enumerate().map(|(i, (e, first))| {
+            let end = self
+                .effects
+                .get(i + 1)
+                .map_or(self.params.len(), |(_, f)| *f);
+            (e, *first..end)
+        })
     }
 
     /// Natural frequencies of the modes the model has: the base mode, then every
@@ -584,15 +596,42 @@ impl TwinModel {
         Ok(y)
     }
 
+    /// Which parameters belong to the terms added at the sensor, after the structure:
+    /// the measurement noise and the parameters of every output-side effect
+    /// ([`Effect::is_output_side`]).
+    pub fn output_side(&self) -> Vec<bool> {
+        let mut mask: Vec<bool> = self
+            .params
+            .iter()
+            .map(|p| p.name == "ln_meas_noise")
+            .collect();
+        for (_, span) in self.effect_spans().filter(|(e, _)| e.is_output_side()) {
+            mask[span].iter_mut().for_each(|m| *m = true);
+        }
+        mask
+    }
+
+    /// A copy whose parameters `hold` names keep their values in a fit (zero step).
+    pub fn holding(&self, hold: impl Fn(usize, &Param) -> bool) -> Self {
+        let mut m = self.clone();
+        for (i, p) in m.params.iter_mut().enumerate() {
+            if hold(i, &self.params[i]) {
+                p.step = 0.0;
+            }
+        }
+        m
+    }
+
     /// What identifies the structural response: the operating point, the fault, the
-    /// effects and every parameter that is not output-side ([`is_output_side`]).
+    /// effects and every parameter that is not output-side ([`Self::output_side`]).
     fn structure_key(&self, n_keep: usize, seed: u64) -> String {
         use std::fmt::Write;
         let mut key = format!(
             "{n_keep}|{seed}|{:?}|{:?}|{:?}",
             self.op, self.fault, self.effects
         );
-        for p in self.params.iter().filter(|p| !is_output_side(&p.name)) {
+        let output_side = self.output_side();
+        for (p, _) in self.params.iter().zip(output_side).filter(|(_, o)| !o) {
             let _ = write!(key, "|{}={:x}", p.name, p.value.to_bits());
         }
         key
@@ -687,19 +726,11 @@ impl TwinModel {
         for (f, u) in force_r.iter_mut().zip(unit.iter()) {
             *f += bg * u;
         }
-        if let Some((Effect::ShaftHarmonics { orders }, p)) = self.effect_params("shaft_harmonics")
-        {
-            for (k, param) in orders.iter().zip(p) {
-                let s = ShaftSinusoid {
-                    amplitude: param.value.exp(),
-                    shaft_hz: shaft * f64::from(*k),
-                    phase_rad: 0.3 * f64::from(*k),
-                    drift_per_s: drift,
-                };
-                s.add_to(grid, 1.0, &mut force_r)?;
-            }
-        }
-        if let Some((Effect::HalfOrders { orders }, p)) = self.effect_params("half_orders") {
+        for kind in ["shaft_harmonics", "half_orders"] {
+            let Some((e, p)) = self.effect_params(kind) else {
+                continue;
+            };
+            let (orders, _) = e.force_orders().unwrap_or_default();
             for (h, param) in orders.iter().zip(p) {
                 let s = ShaftSinusoid {
                     amplitude: param.value.exp(),
@@ -828,16 +859,6 @@ struct Structure {
     shaft: f64,
     /// Speed drift, fraction per second.
     drift: f64,
-}
-
-/// Parameters of the terms added at the sensor, after the structure: the measurement
-/// noise, mains lines, tones by another path, an unexplained tone or band.
-pub(crate) fn is_output_side(name: &str) -> bool {
-    name == "ln_meas_noise"
-        || name == "ln_periodic_amp"
-        || name == "ln_band_level"
-        || name.starts_with("ln_line_amp_")
-        || name.starts_with("ln_tone_amp_")
 }
 
 /// A unit-variance Gaussian sequence of `n` values for `seed`, generated once per

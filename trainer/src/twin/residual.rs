@@ -1033,18 +1033,23 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
             })
         })
     };
-    // A family's strongest `MAX_TONES` lines: every tone is a parameter the refit
-    // differentiates by simulation, and a measured record can carry dozens of shaft-order
-    // lines (CWRU 118: 18); the weaker ones stay in the residual for a later step.
-    let family = |members: &[usize]| {
+    // A family's strongest `MAX_TONES` lines, and the strongest one's excess: every
+    // tone is a parameter the refit differentiates by simulation, and a measured record
+    // can carry dozens of shaft-order lines (CWRU 118: 18); the weaker ones stay in the
+    // residual for a later step.
+    let strongest = |members: &[usize]| {
         let mut members = members.to_vec();
         members.sort_by(|&a, &b| lines[b].excess_db.total_cmp(&lines[a].excess_db));
         members.truncate(MAX_TONES);
         let comps: Vec<Component> = members.iter().map(|&i| lines[i].clone()).collect();
+        let strength = comps.iter().map(|c| c.excess_db).fold(0.0, f32::max);
+        (comps, strength)
+    };
+    let family = |members: &[usize]| {
+        let (comps, strength) = strongest(members);
         let mut orders: Vec<u32> = comps.iter().map(|c| c.order.round() as u32).collect();
         orders.sort_unstable();
         orders.dedup();
-        let strength = comps.iter().map(|c| c.excess_db).fold(0.0, f32::max);
         let note = mains_too(&comps).map_or(String::new(), |mains| {
             format!("; each is also a harmonic of {mains} Hz mains, which this speed and resolution cannot tell from the shaft's orders")
         });
@@ -1101,16 +1106,12 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
             .collect();
         if members.len() >= 2 {
             members.iter().for_each(|&i| used[i] = true);
-            let mut members = members;
-            members.sort_by(|&a, &b| lines[b].excess_db.total_cmp(&lines[a].excess_db));
-            members.truncate(MAX_TONES);
-            let comps: Vec<Component> = members.iter().map(|&i| lines[i].clone()).collect();
+            let (comps, strength) = strongest(&members);
             let mut orders: Vec<f64> = comps
                 .iter()
                 .map(|c| (c.order - 0.5).round() + 0.5)
                 .collect();
             orders.sort_by(f64::total_cmp);
-            let strength = comps.iter().map(|c| c.excess_db).fold(0.0, f32::max);
             out.push(Candidate {
                 effect: Effect::HalfOrders {
                     orders: orders.clone(),
