@@ -1,7 +1,7 @@
 //! Subcommands beyond `data`: `simulate` and `features`. The binary stays thin; each
 //! command is a function over a clap `Args` struct so tests can call it directly.
 
-use crate::data::preprocess::{preprocess, PreprocessConfig};
+use crate::data::preprocess::{preprocess, PreprocessConfig, MODEL_FS_HZ};
 use crate::data::record::{load_recording, Recording};
 use crate::featurize::{
     feature_config, fit_norm, window_features, window_graphs, MaskCounts, WINDOW,
@@ -312,8 +312,13 @@ pub struct LoadedRecord {
 }
 
 impl RecordArgs {
-    /// Load, check and preprocess the record.
+    /// Load, check and preprocess the record to the model rate.
     pub fn load(&self) -> Result<LoadedRecord> {
+        self.load_at(|_| MODEL_FS_HZ)
+    }
+
+    /// Load, check and preprocess the record to `rate(fs)` Hz, `fs` its own rate.
+    fn load_at(&self, rate: impl Fn(f32) -> f32) -> Result<LoadedRecord> {
         // The flags first: a bad value is the user's, not the file's.
         if let Some(fs) = self.fs {
             ensure!(
@@ -334,7 +339,11 @@ impl RecordArgs {
             .rpm
             .or(raw.rpm)
             .context("shaft speed unknown: pass --rpm")?;
-        let rec = preprocess(&raw, &PreprocessConfig::default()).context("preprocess")?;
+        let cfg = PreprocessConfig {
+            target_fs_hz: rate(raw.fs_hz),
+            ..PreprocessConfig::default()
+        };
+        let rec = preprocess(&raw, &cfg).context("preprocess")?;
         // Once for the record, before any window: a speed whose defect lines the
         // envelope cannot read is refused, not diagnosed.
         feature_config(rec.fs_hz, rpm / 60.0, bearing.orders())
@@ -553,6 +562,40 @@ mod tests {
         assert!(parse_bearing("9,40,39,0").is_err());
         assert!(parse_bearing("x,1,2,0").is_err());
     }
+
+    /// A record below the model rate: the predictor refuses it (its network was trained
+    /// at 12 kHz), the twin's loader keeps it at its own rate.
+    #[test]
+    fn a_record_below_the_model_rate_is_kept_at_its_rate_for_the_twin() {
+        let dir = std::env::temp_dir().join(format!("pumptwin-lowrate-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("low.csv");
+        let fs = 8_000.0f32;
+        let rec = Recording {
+            name: "low".into(),
+            fs_hz: fs,
+            rpm: Some(1797.0),
+            channels: vec![crate::data::record::Channel {
+                name: "DE".into(),
+                samples: (0..2 * 8_000)
+                    .map(|i| (std::f32::consts::TAU * 107.0 * i as f32 / fs).sin())
+                    .collect(),
+            }],
+        };
+        write_csv(&rec, &path).unwrap();
+        let args = RecordArgs {
+            input: path,
+            fs: None,
+            rpm: None,
+            bearing: "cwru-6205-de".into(),
+        };
+        let err = format!("{:#}", args.load().unwrap_err());
+        assert!(err.contains("upsampling"), "{err}");
+        let twin = args.load_at(|fs| fs.min(MODEL_FS_HZ)).unwrap();
+        assert_eq!(twin.rec.fs_hz, fs);
+        assert_eq!(twin.rec.channels[0].samples.len(), 2 * 8_000);
+        std::fs::remove_dir_all(&dir).ok();
+    }
 }
 
 /// `pumptwin twin …`
@@ -642,7 +685,12 @@ fn run_twin_loop(args: &TwinLoopArgs) -> Result<()> {
         rec,
         rpm,
         bearing,
-    } = args.record.load()?;
+    } = args
+        .record
+        // The bearing model runs at any rate from 4 kHz: a record above the model rate
+        // is brought to it (the cost of the fit), one below it is compared at its own
+        // rate and band (min(5 kHz, 0.45·fs)), not refused.
+        .load_at(|fs| fs.min(MODEL_FS_HZ))?;
     let channel = match &args.channel {
         Some(name) => rec
             .channel(name)

@@ -261,6 +261,73 @@ fn undeclared_tones_are_found_at_their_frequency() {
     }
 }
 
+/// A tone a bin or two from a tooth of the defect's comb, or above 40 × the shaft rate,
+/// is found: the comb's misfit lines lie within a bin of their teeth once the rate is
+/// refined, and a tolerance of two bins plus 0.2 % once hid a fifth of the spectrum
+/// around an outer-race comb's teeth (1509 Hz is 6 Hz from 14 × BPFO, 3011.7 Hz 5.6 Hz
+/// from 28 × BPFO at 1797 rpm).
+#[test]
+fn tones_beside_the_defect_comb_are_found() {
+    for f in [1509.0, 3011.7] {
+        let report = loop_with_tone(f, 0.05);
+        let step = report
+            .steps
+            .first()
+            .unwrap_or_else(|| panic!("{f} Hz: nothing found ({})", report.stop_reason));
+        match step.detail {
+            Effect::UnexplainedPeriodic { f_hz, .. } => {
+                assert!((f_hz - f).abs() < 1.5, "{f} Hz: placed at {f_hz} Hz")
+            }
+            ref other => panic!("{f} Hz: named {other:?}"),
+        }
+    }
+}
+
+/// A short snapshot (1.2 s) at a rate below the model's (8 kHz, resampled from the
+/// generator's 12 kHz) is fitted at its own rate and shorter Welch blocks, and its
+/// undeclared mains family is still found.
+#[test]
+fn a_short_snapshot_at_a_low_rate_is_fitted() {
+    use pumptwin_trainer::data::preprocess::{preprocess, PreprocessConfig};
+    use pumptwin_trainer::data::record::{Channel, Recording};
+    let x = generate(Injected::LineInterference, Strength::Realistic, 1.2, 21).expect("generator");
+    let rec = Recording {
+        name: "snapshot".into(),
+        fs_hz: FS_HZ,
+        rpm: Some(RPM),
+        channels: vec![Channel {
+            name: "DE".into(),
+            samples: x,
+        }],
+    };
+    let cfg = PreprocessConfig {
+        target_fs_hz: 8_000.0,
+        ..PreprocessConfig::default()
+    };
+    let low = preprocess(&rec, &cfg).expect("resample to 8 kHz");
+    let input = LoopInput {
+        signal: low.channels[0].samples.clone(),
+        fs_hz: low.fs_hz,
+        rpm: RPM,
+        bearing: BearingGeometry::CWRU_6205_DE,
+    };
+    let report = run(&input, &LoopConfig::default()).expect("loop").0;
+    assert_eq!(
+        report.effects.first().map(String::as_str),
+        Some("line_interference"),
+        "{:?}, {}",
+        report.effects,
+        report.stop_reason
+    );
+    // Shorter than two blocks of the shortest Welch block: refused, with the reason.
+    let input = LoopInput {
+        signal: input.signal[..4000].to_vec(),
+        ..input
+    };
+    let err = run(&input, &LoopConfig::default()).unwrap_err().to_string();
+    assert!(err.contains("too short"), "{err}");
+}
+
 /// A line at a high shaft order (27×: a gear mesh or vane pass) is named as that order,
 /// a tone that does not load the bearing, not as "matching no shaft order".
 #[test]

@@ -7,7 +7,9 @@ use super::model::{fault_name, Effect, OperatingPoint, TwinModel};
 use super::residual::{
     analyse, evidence_gap, trace, Candidate, Check, Evidence, ResidualAnalysis, TraceContext,
 };
-use super::signature::{error_figures, to_db, ErrorFigures, Signature, SignatureConfig};
+use super::signature::{
+    error_figures, to_db, ErrorFigures, Signature, SignatureConfig, SignatureError,
+};
 use pumptwin_core::bearing::{BearingGeometry, DefectLocation};
 use pumptwin_core::features::harmonic_level_db;
 use std::time::Instant;
@@ -472,15 +474,13 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
     }
     let n_max = (cfg.max_record_seconds * f64::from(input.fs_hz)) as usize;
     let x = &ac_couple(&input.signal[..input.signal.len().min(n_max)], input.fs_hz);
-    let sig_fit = SignatureConfig::fit(input.fs_hz);
-    let sig_res = SignatureConfig::residual(input.fs_hz);
-    if x.len() < 2 * sig_fit.env_n {
-        return Err(LoopError::Input(format!(
-            "record of {} samples is too short: need {}",
-            x.len(),
-            2 * sig_fit.env_n
-        )));
-    }
+    let too_short = |e: SignatureError| LoopError::Input(format!("the record is too short: {e}"));
+    let sig_fit = SignatureConfig::fit(input.fs_hz)
+        .for_length(x.len())
+        .map_err(too_short)?;
+    let sig_res = SignatureConfig::residual(input.fs_hz)
+        .for_length(x.len())
+        .map_err(too_short)?;
     let op = OperatingPoint {
         fs_hz: input.fs_hz,
         freqs: input.bearing.frequencies(input.rpm / 60.0),

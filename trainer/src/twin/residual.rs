@@ -6,7 +6,7 @@
 //! Narrow runs (≤ 4 bins, a Hann main lobe) are lines; wider runs are bands.
 
 use super::model::{fault_name, Effect, TwinModel};
-use super::signature::{to_db, welch, Signature, SignatureConfig};
+use super::signature::{block_within, to_db, welch, Signature, SignatureConfig};
 use pumptwin_core::bearing::DefectLocation;
 use pumptwin_core::features::{envelope, peak_frequency, EnvelopeBand};
 use pumptwin_core::fft::{fft_in_place, Complex32, Direction};
@@ -19,6 +19,13 @@ pub const MAD_K: f32 = 5.0;
 /// Prominence over its own local median a measured line (PSD or envelope) needs to
 /// count when the residual's spread hides it, dB.
 pub const LINE_PROMINENCE_DB: f32 = 10.0;
+/// The same above 40 × the shaft rate, in the structure's band, dB: there a bearing's
+/// impacts ring the housing's modes, and a measured spectrum is a forest of comb teeth
+/// and sidebands 15–30 dB over their neighbours (CWRU inner-race records 105–108: 18–25
+/// lines of 15 dB or more above 40 ×) — the model's own lines, which the tracer sets aside by their rates — and of
+/// the rig's lines (CWRU 97: 4146 Hz at 32 dB). A tone added there (a drive's switching
+/// line, a neighbouring machine) must stand out of that forest to be read.
+pub const STRUCTURE_LINE_PROMINENCE_DB: f32 = 20.0;
 /// Most lines one tonal candidate (shaft orders, half orders) takes.
 pub const MAX_TONES: usize = 6;
 /// Electrical supply frequencies checked for line interference, Hz.
@@ -248,13 +255,24 @@ pub fn significant_components(
     (out, thr - med)
 }
 
+/// How far from a comb tooth a line may lie and still be the tooth's misfit: bins of
+/// the spectrum, plus a fraction of the frequency. The defect rate is refined on the
+/// measured comb to 1e-5 and then fitted, so the misfit lines of the twelve CWRU
+/// loops lie within 0.8 bins of their teeth (570 of 627; the rest are the spread a
+/// fitted speed drift allows, which the tolerance adds). Two bins plus 0.2 % (±10 Hz
+/// at 2 kHz, a fifth of an outer-race comb's spacing) hid any tone that landed there.
+const TOOTH_TOL_BINS: f64 = 1.0;
+/// See [`TOOTH_TOL_BINS`].
+const TOOTH_TOL_REL: f64 = 0.0005;
+
 /// Is `c` one of the model's own defect lines: a tooth `k·rate` of the impact comb (of
 /// the modelled defect or of a second impact train), a load-zone sideband
-/// `k·rate ± m·f_mod` when the model modulates, each within two bins plus the spread a
-/// modelled speed drift gives tooth k over a record of `span_s`? A small rate mismatch
-/// moves high-order teeth by a bin and leaves ± spikes there, which are the fault
-/// term's misfit, not a missing effect. A line on a low shaft order that lies nearer
-/// the order than the tooth is not the comb's (in the body).
+/// `k·rate ± m·f_mod` when the model modulates, each within [`TOOTH_TOL_BINS`] and
+/// [`TOOTH_TOL_REL`] plus the spread a modelled speed drift gives tooth k over a record
+/// of `span_s`? A small rate mismatch moves high-order teeth by a fraction of a bin and
+/// leaves ± spikes there, which are the fault term's misfit, not a missing effect. A
+/// line on a low shaft order that lies nearer the order than the tooth is not the
+/// comb's (in the body).
 pub fn on_model_comb(model: &TwinModel, c: &Component, df: f64, span_s: f64) -> bool {
     if c.kind != "line" {
         return false;
@@ -291,7 +309,11 @@ pub fn on_model_comb(model: &TwinModel, c: &Component, df: f64, span_s: f64) -> 
                 let f = c.f_hz - f64::from(m) * side;
                 let k = (f / r).round();
                 let off = (f - k * r).abs();
-                (k >= 1.0 && off <= 2.0 * df + 0.002 * c.f_hz + 0.5 * k * r * drift * span_s)
+                (k >= 1.0
+                    && off
+                        <= TOOTH_TOL_BINS * df
+                            + TOOTH_TOL_REL * c.f_hz
+                            + 0.5 * k * r * drift * span_s)
                     .then_some(off)
             })
         })
@@ -369,25 +391,43 @@ pub fn analyse(
     // domains (`prominent_lines`).
     add_lines(
         &mut envelope,
-        prominent_lines(&me, &de, cfg.env_bins(), dfe, shaft_hz, "envelope"),
+        prominent_lines(
+            &me,
+            &de,
+            cfg.env_bins(),
+            dfe,
+            shaft_hz,
+            "envelope",
+            LINE_PROMINENCE_DB,
+        ),
         dfe,
     );
-    // In the PSD, up to 40 × the shaft rate: the range of the shaft-order, mains and
-    // vane-pass lines the tracer models; above it a bearing's spectrum is the
-    // structure's response to the impacts, a forest of comb teeth and sidebands.
-    let psd_lines_top = ((40.0 * shaft_hz / df) as usize).min(*cfg.psd_bins().end());
+    // In the PSD, up to 40 × the shaft rate (the range of the shaft-order, mains and
+    // vane-pass lines the tracer models) at `LINE_PROMINENCE_DB`; above it, in the
+    // structure's forest of comb teeth and sidebands, at
+    // `STRUCTURE_LINE_PROMINENCE_DB`.
+    let (lo, hi) = (*cfg.psd_bins().start(), *cfg.psd_bins().end());
+    let top = ((40.0 * shaft_hz / df) as usize).clamp(lo, hi);
     add_lines(
         &mut psd,
-        prominent_lines(
-            &m,
-            &d,
-            *cfg.psd_bins().start()..=psd_lines_top.max(*cfg.psd_bins().start()),
-            df,
-            shaft_hz,
-            "psd",
-        ),
+        prominent_lines(&m, &d, lo..=top, df, shaft_hz, "psd", LINE_PROMINENCE_DB),
         df,
     );
+    if top < hi {
+        add_lines(
+            &mut psd,
+            prominent_lines(
+                &m,
+                &d,
+                top + 1..=hi,
+                df,
+                shaft_hz,
+                "psd",
+                STRUCTURE_LINE_PROMINENCE_DB,
+            ),
+            df,
+        );
+    }
     envelope.sort_by(|a, b| a.f_hz.total_cmp(&b.f_hz));
     let envelope = envelope.into_iter().filter(|c| c.kind != "band").collect();
     let psd_residual = cfg.psd_bins().map(|k| (cfg.psd_freq(k), d[k])).collect();
@@ -399,10 +439,10 @@ pub fn analyse(
     }
 }
 
-/// The lines of a measured spectrum `meas_db` that stand `LINE_PROMINENCE_DB` over its
-/// own median within ±40 Hz (noise alone: a chance below 1e-3 per bin even for one
-/// Welch segment) and that the model lacks by `MIN_EXCESS_DB` or more (`resid_db`,
-/// measured − model).
+/// The lines of a measured spectrum `meas_db` that stand `prominence_db` over its own
+/// median within ±40 Hz (at [`LINE_PROMINENCE_DB`], noise alone: a chance below 1e-3
+/// per bin even for one Welch segment) and that the model lacks by `MIN_EXCESS_DB` or
+/// more (`resid_db`, measured − model).
 fn prominent_lines(
     meas_db: &[f32],
     resid_db: &[f32],
@@ -410,18 +450,13 @@ fn prominent_lines(
     df: f64,
     shaft_hz: f64,
     domain: &'static str,
+    prominence_db: f32,
 ) -> Vec<Component> {
     let prominence = local_detrend(meas_db, bins.clone(), (40.0 / df).round() as usize);
     let gated: Vec<f32> = resid_db
         .iter()
         .zip(&prominence)
-        .map(|(&d, &p)| {
-            if p >= LINE_PROMINENCE_DB {
-                d.max(0.0)
-            } else {
-                0.0
-            }
-        })
+        .map(|(&d, &p)| if p >= prominence_db { d.max(0.0) } else { 0.0 })
         .collect();
     let (lines, _) = significant_components(&gated, bins, df, shaft_hz, domain);
     lines.into_iter().filter(|c| c.kind == "line").collect()
@@ -550,9 +585,9 @@ fn line_level_db(spec: &[f32], df: f32, f: f32, tol: f32) -> f32 {
 }
 
 /// Does the measured band `[lo, hi]` carry the defect's impacts? Envelope line level at
-/// the impact rate, dB over the floor.
-pub fn band_carries_defect(x: &[f32], fs: f32, lo: f32, hi: f32, rate_hz: f32) -> f32 {
-    match band_envelope_spectrum(x, fs, lo.max(1.0), hi.min(0.49 * fs), 8192) {
+/// the impact rate, dB over the floor (envelope spectrum Welch-averaged over blocks of `n`).
+pub fn band_carries_defect(x: &[f32], fs: f32, lo: f32, hi: f32, rate_hz: f32, n: usize) -> f32 {
+    match band_envelope_spectrum(x, fs, lo.max(1.0), hi.min(0.49 * fs), n) {
         Some((spec, df)) => line_level_db(&spec, df, rate_hz, (0.02 * rate_hz).max(df)),
         None => 0.0,
     }
@@ -578,7 +613,7 @@ pub fn ringdown_frequencies(
     hi: f32,
     rate_hz: f32,
 ) -> Option<(f32, f32)> {
-    let n = 8192usize;
+    let n = block_within(8192, x.len(), 1);
     if x.len() < n {
         return None;
     }
@@ -1179,7 +1214,7 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
     // the next one still gets its turn.
     for b in bands.into_iter().take(2) {
         let (lo, hi) = ((b.f_hz - b.width_hz) as f32, (b.f_hz + b.width_hz) as f32);
-        let carried = rate.map(|r| band_carries_defect(ctx.x, fs, lo, hi, r));
+        let carried = rate.map(|r| band_carries_defect(ctx.x, fs, lo, hi, r, ctx.cfg.env_n));
         let resonance_like = b.width_hz < 0.3 * b.f_hz;
         let structural = match carried {
             Some(level) => level >= 6.0,
@@ -1302,8 +1337,9 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
                     let half = ctx.x.len() / 2;
                     let fd = rate as f32;
                     let h = 3.0;
-                    let f1 = envelope_line(&ctx.x[..half], fs, band, h * fd, 8192);
-                    let f2 = envelope_line(&ctx.x[half..], fs, band, h * fd, 8192);
+                    let n = block_within(ctx.cfg.env_n, half, 1);
+                    let f1 = envelope_line(&ctx.x[..half], fs, band, h * fd, n);
+                    let f2 = envelope_line(&ctx.x[half..], fs, band, h * fd, n);
                     let shift = match (f1, f2) {
                         (Some(a), Some(b)) => (b - a) / (h * fd),
                         _ => 0.0,

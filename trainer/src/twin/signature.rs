@@ -10,6 +10,19 @@ use pumptwin_core::fft::{power_spectrum, Complex32, Window};
 /// Floor added before taking dB, relative to the spectrum's mean level.
 const DB_FLOOR_REL: f32 = 1e-6;
 
+/// The shortest Welch block [`SignatureConfig::for_length`] shortens a block to.
+pub const MIN_BLOCK: usize = 2048;
+
+/// `n_max` halved, down to [`MIN_BLOCK`], until `count` blocks fit in `len` samples (a
+/// block of `n_max` or less is kept as it is).
+pub fn block_within(n_max: usize, len: usize, count: usize) -> usize {
+    let mut block = n_max;
+    while count * block > len && block > MIN_BLOCK {
+        block /= 2;
+    }
+    block
+}
+
 /// How signatures are computed.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SignatureConfig {
@@ -54,6 +67,28 @@ impl SignatureConfig {
             psd_n: 4096,
             ..Self::fit(fs_hz)
         }
+    }
+    /// The configuration for a record of `n` samples: each Welch block (power spectrum,
+    /// envelope spectrum) is halved, down to [`MIN_BLOCK`], until two of them fit, so
+    /// that a short snapshot (20 480 samples at 20 kHz, 12 288 at the model rate; 1.28 s
+    /// at 25.6 kHz) is compared at a coarser resolution instead of refused. The
+    /// envelope's 8192-point block (1.5 Hz at 12 kHz) needs 1.4 s; at 2048 points the
+    /// envelope bins are 5.9 Hz, still a tenth of BPFO at 600 rpm.
+    ///
+    /// # Errors
+    /// [`SignatureError::TooShort`] when two blocks of [`MIN_BLOCK`] do not fit.
+    pub fn for_length(self, n: usize) -> Result<Self, SignatureError> {
+        if n < 2 * MIN_BLOCK {
+            return Err(SignatureError::TooShort {
+                need: 2 * MIN_BLOCK,
+                got: n,
+            });
+        }
+        Ok(Self {
+            psd_n: block_within(self.psd_n, n, 2),
+            env_n: block_within(self.env_n, n, 2),
+            ..self
+        })
     }
     /// Frequency of PSD bin `k`.
     pub fn psd_freq(&self, k: usize) -> f32 {
@@ -242,4 +277,34 @@ pub fn residual_vector(
     r.push(10.0f32.sqrt() * (sim.rms / meas.rms).ln());
     r.push(2.0 * (sim.kurtosis / meas.kurtosis).ln());
     r
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A short snapshot is compared with shorter blocks, down to two of `MIN_BLOCK`.
+    #[test]
+    fn a_short_record_gets_shorter_blocks() {
+        let fit = SignatureConfig::fit(12_000.0);
+        assert_eq!(fit.for_length(60_000).unwrap(), fit);
+        // 1 s at 20 kHz, brought to 12 kHz: 12 000 samples.
+        let short = fit.for_length(12_000).unwrap();
+        assert_eq!((short.psd_n, short.env_n), (1024, 4096));
+        let res = SignatureConfig::residual(12_000.0)
+            .for_length(12_000)
+            .unwrap();
+        assert_eq!((res.psd_n, res.env_n), (4096, 4096));
+        let shortest = fit.for_length(2 * MIN_BLOCK).unwrap();
+        assert_eq!(shortest.env_n, MIN_BLOCK);
+        assert!(matches!(
+            fit.for_length(2 * MIN_BLOCK - 1),
+            Err(SignatureError::TooShort { need, got })
+                if need == 2 * MIN_BLOCK && got == 2 * MIN_BLOCK - 1
+        ));
+        // The blocks fit the record they were made for.
+        let x: Vec<f32> = (0..12_000).map(|i| (i as f32 * 0.37).sin()).collect();
+        assert!(Signature::of(&x, &short).is_ok());
+        assert!(Signature::of(&x, &res).is_ok());
+    }
 }
