@@ -93,6 +93,10 @@ pub struct ExtraTerms {
     pub shaft_harmonics: Vec<(f64, f64)>,
     /// Output-side sinusoids `(Hz, amplitude in output units)` on every node.
     pub output_lines: Vec<(f64, f32)>,
+    /// Output-side band noise `(low Hz, high Hz, RMS in output units)` on every node
+    /// (flow noise, cavitation, a neighbour's broadband): a sum of sinusoids 1 Hz
+    /// apart across the band with random phases, independent per node.
+    pub output_band: Option<(f64, f64, f32)>,
     /// Linear speed drift (fraction per second) of impacts and shaft terms.
     pub speed_drift_per_s: f64,
     /// Further impact trains in the radial force (a second defect, a rub, impacts from
@@ -302,6 +306,9 @@ pub fn simulate(spec: &SimulationSpec) -> Result<Recording, SimError> {
                 *v += amp * (2.0 * std::f64::consts::PI * hz * t + 0.4).sin() as f32;
             }
         }
+        if let Some((lo, hi, rms)) = spec.extra.output_band {
+            add_multisine_band(&mut out, f64::from(spec.fs_hz), lo, hi, rms, &mut rng)?;
+        }
         if spec.measurement_noise > 0.0 {
             for v in out.iter_mut() {
                 *v += spec.measurement_noise * rng.normal() as f32;
@@ -320,6 +327,38 @@ pub fn simulate(spec: &SimulationSpec) -> Result<Recording, SimError> {
         rpm: Some(spec.rpm),
         channels,
     })
+}
+
+/// Add band noise of RMS `rms` over `[lo, hi]` Hz: equal-amplitude sinusoids every
+/// 1 Hz with random phases (a flat band, nearly Gaussian for hundreds of components).
+fn add_multisine_band(
+    out: &mut [f32],
+    fs: f64,
+    lo: f64,
+    hi: f64,
+    rms: f32,
+    rng: &mut Xoshiro128pp,
+) -> Result<(), SimError> {
+    if !(lo > 0.0 && hi > lo + 1.0 && hi < 0.5 * fs && rms >= 0.0) {
+        return Err(SimError::Invalid(format!(
+            "output band {lo}–{hi} Hz, RMS {rms}: need 0 < low < high − 1 Hz < fs/2, RMS ≥ 0"
+        )));
+    }
+    let count = (hi - lo).floor() as usize + 1;
+    let amp = f64::from(rms) * (2.0 / count as f64).sqrt();
+    let w = 2.0 * std::f64::consts::PI / fs;
+    for i in 0..count {
+        let f = lo + i as f64;
+        let phase = 2.0 * std::f64::consts::PI * rng.uniform();
+        // The sinusoid by its rotation recurrence: one complex multiply per sample.
+        let (step_re, step_im) = ((w * f).cos(), (w * f).sin());
+        let (mut re, mut im) = (phase.cos(), phase.sin());
+        for v in out.iter_mut() {
+            *v += (amp * im) as f32;
+            (re, im) = (re * step_re - im * step_im, re * step_im + im * step_re);
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -115,6 +115,7 @@ effect_tests! {
     unknown_impacts: Injected::UnknownImpacts,
     vane_pass: Injected::VanePass,
     looseness: Injected::Looseness,
+    noise_band: Injected::NoiseBand,
 }
 
 /// Looseness (generator: a force of 300, 250, 200 and 150 N at 0.5×, 1.5×, 2.5× and
@@ -281,6 +282,37 @@ fn tones_beside_the_defect_comb_are_found() {
             ref other => panic!("{f} Hz: named {other:?}"),
         }
     }
+}
+
+/// Two unrelated tones nobody declared are both found, each at its frequency: a
+/// record can carry several (a neighbouring machine, a drive's switching line), and the
+/// loop once stopped after the first with the second in plain sight.
+#[test]
+fn two_undeclared_tones_are_both_found() {
+    let mut x = generate(Injected::None, Strength::Realistic, 4.0, 41).expect("generator");
+    add_tones(&mut x, FS_HZ, &[(437.3, 0.05, 0.0), (1234.5, 0.04, 1.0)]);
+    let report = loop_signal(x);
+    let mut found: Vec<f64> = report
+        .steps
+        .iter()
+        .filter_map(|s| match s.detail {
+            Effect::UnexplainedPeriodic { f_hz, .. } => Some(f_hz),
+            _ => None,
+        })
+        .collect();
+    found.sort_by(f64::total_cmp);
+    assert_eq!(
+        found.len(),
+        2,
+        "{:?}, {}",
+        report.effects,
+        report.stop_reason
+    );
+    assert!(
+        (found[0] - 437.3).abs() < 0.75 && (found[1] - 1234.5).abs() < 0.75,
+        "{found:?}"
+    );
+    assert!(report.residual_noise_like, "{}", report.stop_reason);
 }
 
 /// A short snapshot (1.2 s) at a rate below the model's (8 kHz, resampled from the

@@ -49,6 +49,9 @@ pub struct FitConfig {
     pub max_iter: usize,
     /// Relative cost gain below which an iteration ends the fit.
     pub min_gain: f32,
+    /// Model evaluations after which no further iteration starts (the fit ends where
+    /// it stands; one iteration may overrun it by its Jacobian and line search).
+    pub max_evaluations: usize,
 }
 
 /// A fitted model and how well it fits.
@@ -136,6 +139,9 @@ pub fn fit(start: &TwinModel, target: &Target, cfg: &FitConfig) -> Result<FitRes
     let mut evaluations = 1;
     let mut lambda = 1e-2f64;
     for _ in 0..cfg.max_iter {
+        if evaluations >= cfg.max_evaluations {
+            break;
+        }
         // Jacobian by forward differences.
         let mut jac = vec![vec![0.0f64; r.len()]; p];
         for (col, &i) in jac.iter_mut().zip(&free) {

@@ -41,11 +41,14 @@ pub enum Injected {
     /// Mechanical looseness: a force at the half orders 0.5×, 1.5×, 2.5× and 3.5× of the
     /// shaft rate (the rotor lifts and settles once every two turns).
     Looseness,
+    /// Band noise at the sensor, 1.8–2.4 kHz (a pump's flow noise or cavitation, a
+    /// neighbour's broadband): it excites nothing and carries no impact rhythm.
+    NoiseBand,
 }
 
 impl Injected {
     /// Every injectable effect except the control.
-    pub const EFFECTS: [Injected; 12] = [
+    pub const EFFECTS: [Injected; 13] = [
         Injected::ShaftHarmonics,
         Injected::LoadZoneModulation,
         Injected::Slip,
@@ -58,6 +61,7 @@ impl Injected {
         Injected::UnknownImpacts,
         Injected::VanePass,
         Injected::Looseness,
+        Injected::NoiseBand,
     ];
 
     /// The effect name the loop should report.
@@ -75,6 +79,7 @@ impl Injected {
             Injected::SecondDefect | Injected::UnknownImpacts => Some("second_impact_train"),
             Injected::VanePass => Some("shaft_order_tones"),
             Injected::Looseness => Some("half_orders"),
+            Injected::NoiseBand => Some("unexplained_band"),
         }
     }
 }
@@ -154,6 +159,7 @@ pub fn generate(
             spec.params.stiffness_nl_radial = 0.16 * s * spec.params.stiffness_radial / 1e-14;
         }
         Injected::UnknownPeriodic => spec.extra.output_lines = vec![(437.3, 0.05 * s as f32)],
+        Injected::NoiseBand => spec.extra.output_band = Some((1800.0, 2400.0, 0.1 * s as f32)),
         Injected::Looseness => {
             spec.extra.shaft_harmonics = [(0.5, 300.0), (1.5, 250.0), (2.5, 200.0), (3.5, 150.0)]
                 .map(|(h, a)| (h, a * s))

@@ -201,7 +201,7 @@ impl Effect {
     fn initial(&self, st: &Start<'_>) -> Vec<(String, f64)> {
         let Start {
             noise,
-            line_amp,
+            excess_power,
             force_gain,
             freqs,
             peak_displacement,
@@ -209,6 +209,9 @@ impl Effect {
             background,
         } = *st;
         let shaft = f64::from(freqs.shaft);
+        // A sinusoid carrying the excess power at `f` (a one-sided PSD line of
+        // amplitude A holds A²/2).
+        let line_amp = |f: f64| excess_power(f, 0.0).map(|p| (2.0 * p).sqrt());
         let amp_or = |f: f64| line_amp(f).unwrap_or(3.0 * noise).max(1e-9).ln();
         match self {
             Effect::ShaftHarmonics { .. } | Effect::HalfOrders { .. } => {
@@ -251,7 +254,22 @@ impl Effect {
             Effect::UnexplainedPeriodic { f_hz, .. } => {
                 vec![("ln_periodic_amp".into(), amp_or(*f_hz))]
             }
-            Effect::UnexplainedBand { .. } => vec![("ln_band_level".into(), noise.ln())],
+            // Band noise whose RMS carries the excess power over the band: started at
+            // the measurement noise σ_y, a band a few dB over the model adds nothing
+            // the log spectrum can feel, and the refit never moves it.
+            // Its centre and width are fitted too: the band is read off a residual
+            // smoothed over ±100 Hz, which widens its run.
+            Effect::UnexplainedBand { f_hz, bandwidth_hz } => vec![
+                (
+                    "ln_band_level".into(),
+                    excess_power(*f_hz, 0.5 * bandwidth_hz)
+                        .map_or(noise, f64::sqrt)
+                        .max(1e-9)
+                        .ln(),
+                ),
+                ("ln_band_centre_hz".into(), f_hz.ln()),
+                ("ln_band_width_hz".into(), bandwidth_hz.max(1.0).ln()),
+            ],
             // Half the modelled defect's impact level, or (healthy model) twenty times
             // the background force; the refit's second start tries a twentieth of it.
             Effect::SecondImpactTrain { .. } => {
@@ -278,8 +296,9 @@ impl Effect {
 struct Start<'a> {
     /// Measurement noise σ_y of the current model (output units).
     noise: f64,
-    /// Amplitude (output units) of the measured excess over the model at a frequency.
-    line_amp: &'a dyn Fn(f64) -> Option<f64>,
+    /// Power (output units²) of the measured excess over the model within `f ± half`
+    /// Hz (at least the PSD's ±2 bins): `excess_power(f, half)`.
+    excess_power: &'a dyn Fn(f64, f64) -> Option<f64>,
     /// The model's output amplitude per newton of force at a frequency.
     force_gain: &'a dyn Fn(f64) -> f64,
     /// Kinematic frequencies at the nominal speed.
@@ -362,10 +381,14 @@ impl TwinModel {
         }
     }
 
-    /// This model with `effect` added. `line_amp(f)` gives the amplitude of the
-    /// measured excess at `f` (output units) to start line-like terms where the data
-    /// puts them; other parameters start from physical defaults.
-    pub fn with_effect(&self, effect: Effect, line_amp: &dyn Fn(f64) -> Option<f64>) -> Self {
+    /// This model with `effect` added. `excess_power(f, half)` gives the power of the
+    /// measured excess within `f ± half` Hz (output units²) to start line- and band-like
+    /// terms where the data puts them; other parameters start from physical defaults.
+    pub fn with_effect(
+        &self,
+        effect: Effect,
+        excess_power: &dyn Fn(f64, f64) -> Option<f64>,
+    ) -> Self {
         let mut m = self.clone();
         let noise = self.get("ln_meas_noise").map_or(0.01, f64::exp);
         let fn_hz = self.get("ln_fn_hz").map_or(3000.0, f64::exp);
@@ -394,7 +417,7 @@ impl TwinModel {
         let background = self.get("ln_background").map_or(0.0, f64::exp);
         let start = Start {
             noise,
-            line_amp,
+            excess_power,
             force_gain: &force_gain,
             freqs: self.op.freqs,
             peak_displacement: peak,
@@ -483,6 +506,28 @@ impl TwinModel {
             .filter(|(e, _)| e.name() == kind)
             .map(|(e, span)| (e, &self.params[span]))
             .collect()
+    }
+
+    /// The frequencies (Hz) of every sinusoid the model adds, at the sensor or as a
+    /// force: a line there is that term's misfit, not a new effect.
+    pub fn tone_frequencies(&self) -> Vec<f64> {
+        let shaft = f64::from(self.op.freqs.shaft);
+        let mut out = Vec::new();
+        for (e, _) in &self.effects {
+            match e {
+                Effect::LineInterference { freqs } => out.extend(freqs.iter().copied()),
+                Effect::ShaftOrderTones { orders } => {
+                    out.extend(orders.iter().map(|&k| shaft * f64::from(k)))
+                }
+                Effect::UnexplainedPeriodic { f_hz, .. } => out.push(*f_hz),
+                other => {
+                    if let Some((orders, _)) = other.force_orders() {
+                        out.extend(orders.iter().map(|k| shaft * k));
+                    }
+                }
+            }
+        }
+        out
     }
 
     /// Every effect with the index range of its parameters, in the order added.
@@ -578,15 +623,15 @@ impl TwinModel {
                 );
             }
         }
-        if let Some((Effect::UnexplainedPeriodic { f_hz, .. }, p)) =
-            self.effect_params("unexplained_periodic")
-        {
-            add_sine(*f_hz, p[0].value.exp(), 0.7);
+        // A record may carry several tones, and bands, nobody declared.
+        for (e, p) in self.effects_of("unexplained_periodic") {
+            if let Effect::UnexplainedPeriodic { f_hz, .. } = e {
+                add_sine(*f_hz, p[0].value.exp(), 0.7);
+            }
         }
-        if let Some((Effect::UnexplainedBand { f_hz, bandwidth_hz }, p)) =
-            self.effect_params("unexplained_band")
-        {
-            add_band_noise(&mut y, fs, *f_hz, *bandwidth_hz, p[0].value.exp(), &mut rng);
+        for (_, p) in self.effects_of("unexplained_band") {
+            let [level, centre, width] = [0, 1, 2].map(|i| p[i].value.exp());
+            add_band_noise(&mut y, fs, centre, width, level, &mut rng)?;
         }
         let noise = self.get("ln_meas_noise").map_or(0.0, f64::exp);
         let unit_y = unit_normals(y.len(), seed ^ 0x0_15E);
@@ -887,25 +932,52 @@ fn unit_normals(n: usize, seed: u64) -> std::rc::Rc<Vec<f64>> {
     })
 }
 
-/// Add white noise passed through a 2nd-order resonator (centre `f`, −3 dB bandwidth
-/// `bw`), scaled to RMS `level`.
-fn add_band_noise(y: &mut [f32], fs: f64, f: f64, bw: f64, level: f64, rng: &mut Xoshiro128pp) {
-    let r = (-std::f64::consts::PI * bw.max(1.0) / fs).exp();
-    let c = 2.0 * r * (2.0 * std::f64::consts::PI * f / fs).cos();
-    let (mut y1, mut y2) = (0.0f64, 0.0f64);
-    let mut band = Vec::with_capacity(y.len());
-    for _ in 0..y.len() {
-        let v = rng.normal() + c * y1 - r * r * y2;
-        y2 = y1;
-        y1 = v;
-        band.push(v);
+/// Add band noise of RMS `level` whose spectrum is flat over `f ± bw/2` Hz, with
+/// raised-cosine skirts a tenth of the width wide (at least 20 Hz): noise added at the
+/// sensor (flow, cavitation, a neighbour's broadband) fills a band evenly; a two-pole
+/// resonator's skirts would spill power far outside it, where the fit then pushes
+/// the level down. Shaped in the frequency domain over the next power of two.
+fn add_band_noise(
+    y: &mut [f32],
+    fs: f64,
+    f: f64,
+    bw: f64,
+    level: f64,
+    rng: &mut Xoshiro128pp,
+) -> Result<(), pumptwin_core::Error> {
+    use pumptwin_core::fft::{fft_in_place, Complex32, Direction};
+    let n = y.len().next_power_of_two();
+    let mut z: Vec<Complex32> = (0..n)
+        .map(|_| Complex32::new(rng.normal() as f32, 0.0))
+        .collect();
+    fft_in_place(&mut z, Direction::Forward)?;
+    let df = fs / n as f64;
+    let (lo, hi) = (f - 0.5 * bw, f + 0.5 * bw);
+    let skirt = (0.1 * bw).max(20.0);
+    let gain = |fk: f64| {
+        let outside = (lo - fk).max(fk - hi);
+        if outside <= 0.0 {
+            1.0
+        } else if outside >= skirt {
+            0.0
+        } else {
+            0.5 * (1.0 + (std::f64::consts::PI * outside / skirt).cos())
+        }
+    };
+    for (k, v) in z.iter_mut().enumerate() {
+        let g = gain(k.min(n - k) as f64 * df) as f32;
+        *v = Complex32::new(v.re * g, v.im * g);
     }
-    let rms = (band.iter().map(|v| v * v).sum::<f64>() / band.len().max(1) as f64)
+    fft_in_place(&mut z, Direction::Inverse)?;
+    let band = &z[..y.len()];
+    let rms = (band.iter().map(|v| f64::from(v.re).powi(2)).sum::<f64>()
+        / band.len().max(1) as f64)
         .sqrt()
         .max(1e-30);
-    for (o, b) in y.iter_mut().zip(&band) {
-        *o += (level * b / rms) as f32;
+    for (o, b) in y.iter_mut().zip(band) {
+        *o += (level * f64::from(b.re) / rms) as f32;
     }
+    Ok(())
 }
 
 /// Which defect the frequencies point at, by name (`outer_race` …) for reports.
@@ -940,7 +1012,7 @@ mod tests {
             20.0,
             1e-4,
         );
-        let no_line = |_: f64| None;
+        let no_line = |_: f64, _: f64| None;
         let one = base.with_effect(Effect::ExtraResonance { f_hz: 1_800.0 }, &no_line);
         let two = one.with_effect(Effect::ExtraResonance { f_hz: 900.0 }, &no_line);
         assert_eq!(two.mode_frequencies().len(), 3);
