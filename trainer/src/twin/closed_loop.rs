@@ -646,7 +646,7 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
                 }
                 let mask = m.output_side();
                 let held =
-                    m.holding(|i, p| !mask[i] && !(frees_background && p.name == "ln_background"));
+                    m.holding(|i, p| !(mask[i] || frees_background && p.name == "ln_background"));
                 let mut r =
                     refit_with_drift(&held, &target, &trial_cfg, fit_cfg.n_sim, drift_known)?;
                 // The fitted values, the steps of the model as it was.
