@@ -254,11 +254,11 @@ impl Effect {
             Effect::UnexplainedPeriodic { f_hz, .. } => {
                 vec![("ln_periodic_amp".into(), amp_or(*f_hz))]
             }
-            // Band noise whose RMS carries the excess power over the band: started at
+            // Band noise whose RMS carries the excess power over the band (started at
             // the measurement noise σ_y, a band a few dB over the model adds nothing
-            // the log spectrum can feel, and the refit never moves it.
-            // Its centre and width are fitted too: the band is read off a residual
-            // smoothed over ±100 Hz, which widens its run.
+            // the log spectrum can feel, and the refit never moves it), with its centre
+            // and width fitted too: the band is read off a residual smoothed over
+            // ±100 Hz, which widens its run.
             Effect::UnexplainedBand { f_hz, bandwidth_hz } => vec![
                 (
                     "ln_band_level".into(),
