@@ -47,6 +47,9 @@ pub enum Direction {
     Inverse,
 }
 
+/// Twiddles held at a time by [`fft_in_place`] (512 bytes of stack).
+const TWIDDLE_RUN: usize = 64;
+
 /// In-place FFT of a power-of-two length ≥ 2.
 ///
 /// # Errors
@@ -75,24 +78,34 @@ pub fn fft_in_place(buf: &mut [Complex32], direction: Direction) -> Result<()> {
         let theta = sign * 2.0 * math::PI / len as f64;
         let (step_re, step_im) = (math::cos(theta), math::sin(theta));
         let (mut w_re, mut w_im) = (1.0f64, 0.0f64);
-        for j in 0..half {
-            let (wr, wi) = (w_re as f32, w_im as f32);
-            let mut k = j;
-            // `k + half < n` for every `k ≡ j (mod len)` below `n`, as `j < half`; the
-            // checked accesses make that visible to the optimiser (no panic path).
-            while let (Some(&a), Some(&b)) = (buf.get(k), buf.get(k + half)) {
-                let t = Complex32::new(b.re * wr - b.im * wi, b.re * wi + b.im * wr);
-                if let Some(x) = buf.get_mut(k) {
+        // The twiddles of `TWIDDLE_RUN` consecutive j at a time, from the recurrence in
+        // order (so every w_j is the value a j-by-j walk gives), then applied to every
+        // block of the stage: each block's run of butterflies is contiguous in memory,
+        // where a walk over j for the whole buffer strides it `half` times.
+        let mut run = [(0.0f32, 0.0f32); TWIDDLE_RUN];
+        let mut j0 = 0;
+        while j0 < half {
+            let m = TWIDDLE_RUN.min(half - j0);
+            for w in run.iter_mut().take(m) {
+                *w = (w_re as f32, w_im as f32);
+                let next_re = w_re * step_re - w_im * step_im;
+                w_im = w_re * step_im + w_im * step_re;
+                w_re = next_re;
+            }
+            for block in buf.chunks_exact_mut(len) {
+                let (lo, hi) = block.split_at_mut(half);
+                let (Some(lo), Some(hi)) = (lo.get_mut(j0..), hi.get_mut(j0..)) else {
+                    continue;
+                };
+                for ((x, y), &(wr, wi)) in lo.iter_mut().zip(hi.iter_mut()).zip(run.iter().take(m))
+                {
+                    let (a, b) = (*x, *y);
+                    let t = Complex32::new(b.re * wr - b.im * wi, b.re * wi + b.im * wr);
                     *x = Complex32::new(a.re + t.re, a.im + t.im);
-                }
-                if let Some(y) = buf.get_mut(k + half) {
                     *y = Complex32::new(a.re - t.re, a.im - t.im);
                 }
-                k += len;
             }
-            let next_re = w_re * step_re - w_im * step_im;
-            w_im = w_re * step_im + w_im * step_re;
-            w_re = next_re;
+            j0 += m;
         }
         len *= 2;
     }

@@ -128,10 +128,12 @@ pub fn filter_decimate(input: &[f32], taps: &[f32], factor: usize, out: &mut [f3
         let hi = centre + half as isize;
         let mut acc = 0.0f32;
         if lo >= 0 && hi < n_i {
-            // Fast path: no reflection needed. x index = centre + half − j.
-            let base = (centre + half as isize) as usize;
-            for (j, h) in taps.iter().enumerate() {
-                acc += h * input[base - j];
+            // Fast path: no reflection needed. x index = centre + half − j, taken as
+            // the window read backwards (the same order of sums, no index checks).
+            if let Some(window) = input.get(lo as usize..=hi as usize) {
+                for (h, x) in taps.iter().zip(window.iter().rev()) {
+                    acc += h * x;
+                }
             }
         } else {
             for (j, h) in taps.iter().enumerate() {

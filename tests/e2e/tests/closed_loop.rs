@@ -284,6 +284,48 @@ fn tones_beside_the_defect_comb_are_found() {
     }
 }
 
+/// Lines below the shaft rate are compared and traced: a cage-rate line (FTF, 0.398×)
+/// and a whirl at 0.43× — both below the 20 Hz where the compared spectrum once began —
+/// are each found at their frequency, and the evidence names the cage rate and, where
+/// the two lie within the resolution of each other, the whirl beside it.
+#[test]
+fn sub_synchronous_lines_are_found_and_named() {
+    let shaft = f64::from(RPM) / 60.0;
+    for order in [0.398, 0.43] {
+        let f = order * shaft;
+        let report = loop_with_tone(f, 0.06);
+        let step = report
+            .steps
+            .first()
+            .unwrap_or_else(|| panic!("{f:.2} Hz: nothing found ({})", report.stop_reason));
+        match step.detail {
+            Effect::UnexplainedPeriodic { f_hz, .. } => {
+                assert!((f_hz - f).abs() < 1.5, "{f:.2} Hz: placed at {f_hz} Hz")
+            }
+            ref other => panic!("{f:.2} Hz: named {other:?}"),
+        }
+        assert!(
+            step.evidence.summary.contains("cage rate"),
+            "{}",
+            step.evidence.summary
+        );
+        if order > 0.42 {
+            assert!(
+                step.evidence.summary.contains("whirl"),
+                "{}",
+                step.evidence.summary
+            );
+        }
+        assert!(
+            step.error_after.psd_log_rmse_db < 0.6 * step.error_before.psd_log_rmse_db,
+            "{:?} -> {:?}",
+            step.error_before,
+            step.error_after
+        );
+        assert!(report.residual_noise_like, "{}", report.stop_reason);
+    }
+}
+
 /// Two unrelated tones nobody declared are both found, each at its frequency: a
 /// record can carry several (a neighbouring machine, a drive's switching line), and the
 /// loop once stopped after the first with the second in plain sight.

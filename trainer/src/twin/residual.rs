@@ -237,15 +237,20 @@ pub fn significant_components(
                 peak as f64
             };
             let f = at * df;
-            let (kind, width_bins) = if peak == *bins.start() && peak > 0 {
-                ("below_band", end - start + 1)
-            } else if peak == *bins.end() {
-                ("above_band", end - start + 1)
-            } else if core_bins <= LINE_MAX_BINS {
-                ("line", core_bins)
-            } else {
-                ("band", end - start + 1)
-            };
+            // A peak on an edge bin is energy from outside the band only where the
+            // residual keeps rising past the edge; a local maximum there is a line or
+            // band of its own (a cage-rate line two bins above the low edge).
+            let rises = |k: Option<usize>| k.and_then(|k| d.get(k)).is_some_and(|&v| v > d[peak]);
+            let (kind, width_bins) =
+                if peak == *bins.start() && peak > 0 && rises(peak.checked_sub(1)) {
+                    ("below_band", end - start + 1)
+                } else if peak == *bins.end() && rises(Some(peak + 1)) {
+                    ("above_band", end - start + 1)
+                } else if core_bins <= LINE_MAX_BINS {
+                    ("line", core_bins)
+                } else {
+                    ("band", end - start + 1)
+                };
             Component {
                 domain,
                 kind,
@@ -1196,8 +1201,20 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
                 let k = c.order.round();
                 k >= 1.0 && (c.f_hz - k * shaft).abs() < 0.75 * df
             };
+            let ftf = f64::from(model.op.freqs.ftf);
             let what = if is_order(&c) || on_any_order {
                 format!("shaft order {} (above the 1-12x of unbalance and misalignment: a mesh or vane/blade-pass frequency, teeth or vanes x shaft rate), no electrical line or defect rate", c.order.round())
+            } else if (c.f_hz - ftf).abs() < tol(c.f_hz).max(0.01 * ftf) {
+                // Whirl (0.42-0.48x) and the cage (about 0.4x) lie a bin or less apart at
+                // a short record's resolution: say so rather than pick one.
+                let whirl =
+                    (0.42 * shaft - tol(c.f_hz)..=0.48 * shaft + tol(c.f_hz)).contains(&c.f_hz);
+                format!(
+                    "at the cage rate (FTF {ftf:.2} Hz): the cage turning out of balance or worn, a force the bearing model does not have{}",
+                    if whirl { format!("; or a sub-synchronous whirl of a seal or journal (0.42-0.48x), which this resolution ({:.1} Hz) cannot tell from it", tol(c.f_hz)) } else { String::new() }
+                )
+            } else if c.order < 1.0 {
+                "below the shaft rate, matching no cage rate or electrical line: sub-synchronous (a seal's or journal's fluid whirl at 0.42-0.48x, a pump's rotating stall, a belt's rate)".to_string()
             } else {
                 "matching no shaft order, electrical line or defect rate".to_string()
             };
