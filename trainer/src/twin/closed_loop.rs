@@ -163,7 +163,7 @@ pub struct LoopConfig {
     /// cost that does not depend on the machine (a 2 s evaluation takes 8–10 ms on one
     /// core of the 2-core VM; only the first fit and the last refit's iteration run
     /// past it). 880 keeps the twelve CWRU loops under 10 s each on that core, with a
-    /// tenth to spare for a slower hour of the VM (8.8 s at most, fifteenth session).
+    /// tenth to spare for a slower hour of the VM (9.3 s at most, fifteenth session).
     pub max_evaluations: usize,
 }
 
