@@ -195,6 +195,10 @@ fn runs_above(
     out
 }
 
+/// Widest run of the raw residual kept as a narrow band (the smoothed residual's bands
+/// are at least this wide), Hz.
+pub const NARROW_BAND_MAX_HZ: f64 = 100.0;
+
 /// Widest peak, in bins within 10 dB of its top, that is still a line.
 pub const LINE_MAX_BINS: usize = 4;
 
@@ -372,7 +376,8 @@ pub fn analyse(
     let (raw, thr) = significant_components(&d, cfg.psd_bins(), df, shaft_hz, "psd");
     // Lines, and what stands at the band's edges from outside it; bands come from the
     // smoothed residual below.
-    let mut psd: Vec<Component> = raw.into_iter().filter(|c| c.kind != "band").collect();
+    let (narrow, mut psd): (Vec<Component>, Vec<Component>) =
+        raw.into_iter().partition(|c| c.kind == "band");
     let half = ((100.0 / df).ceil() as usize).max(2);
     let bins = cfg.psd_bins();
     let smooth: Vec<f32> = (0..d.len())
@@ -386,7 +391,21 @@ pub fn analyse(
         })
         .collect();
     let (bands, _) = significant_bands(&smooth, bins, df, shaft_hz);
+    // A run of the raw residual wider than a line and narrower than the bands the
+    // smoothing finds (under 100 Hz: a tone whose frequency wanders with a drive's or a
+    // belt's speed, a lightly damped mode): the 200 Hz smoothing dilutes it below its
+    // 3 dB, so it is kept from the raw residual, where no smoothed band covers it.
+    let covered = |c: &Component| {
+        bands.iter().any(|b| {
+            (c.f_hz - b.centre_hz.unwrap_or(b.f_hz)).abs() <= 0.5 * (b.width_hz + c.width_hz)
+        })
+    };
+    let narrow: Vec<Component> = narrow
+        .into_iter()
+        .filter(|c| c.width_hz < NARROW_BAND_MAX_HZ && !covered(c))
+        .collect();
     psd.extend(bands);
+    psd.extend(narrow);
     let me = to_db(&meas.env, &meas.env);
     let se = to_db(&sim.env, &meas.env);
     let de: Vec<f32> = me.iter().zip(&se).map(|(a, b)| a - b).collect();
@@ -1263,6 +1282,11 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
     // The two largest: once the largest band's candidate has been tried and rejected,
     // the next one still gets its turn.
     for b in bands.into_iter().take(2) {
+        // A narrow band (from the raw residual, under `NARROW_BAND_MAX_HZ`) is narrower
+        // than the sidebands a defect rate puts around what it excites, so its envelope
+        // cannot say what drives it: both readings are offered (below).
+        let narrow = b.width_hz < NARROW_BAND_MAX_HZ;
+        let rate = rate.filter(|_| !narrow);
         let (lo, hi) = ((b.f_hz - b.width_hz) as f32, (b.f_hz + b.width_hz) as f32);
         let carried = rate.map(|r| band_carries_defect(ctx.x, fs, lo, hi, r, ctx.cfg.env_n));
         // Does the band's excess carry the impacts' rhythm? A mode the impacts excite
@@ -1306,7 +1330,34 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
             );
         }
         let strength = b.excess_db + 3.0 * (b.width_hz / 100.0).min(5.0) as f32;
-        if structural && model.effects_of("extra_resonance").len() < MAX_EXTRA_MODES {
+        if narrow {
+            let note = "; narrower than a defect rate's sidebands, so its envelope cannot say what drives it";
+            if model.effects_of("extra_resonance").len() < MAX_EXTRA_MODES {
+                let mut ev = ev.clone();
+                ev.summary.push_str(note);
+                ev.summary.push_str(": a lightly damped structural mode, or (the rival reading) noise or a wandering tone at the sensor");
+                out.push(Candidate {
+                    effect: Effect::ExtraResonance { f_hz: b.f_hz },
+                    evidence: ev,
+                    strength,
+                    check: Check::Lines,
+                });
+            }
+            if model.effects_of("unexplained_band").len() < MAX_UNEXPLAINED_BANDS {
+                let mut ev = ev;
+                ev.summary.push_str(note);
+                ev.summary.push_str(": a tone whose frequency wanders (a drive's or belt's speed) or narrow noise at the sensor, or (the rival reading) a lightly damped mode");
+                out.push(Candidate {
+                    effect: Effect::UnexplainedBand {
+                        f_hz: b.centre_hz.unwrap_or(b.f_hz),
+                        bandwidth_hz: b.width_hz.max(2.0 * df),
+                    },
+                    evidence: ev,
+                    strength: strength - 0.5,
+                    check: Check::Lines,
+                });
+            }
+        } else if structural && model.effects_of("extra_resonance").len() < MAX_EXTRA_MODES {
             ev.summary.push_str(if carried.is_some() {
                 "; its envelope carries the defect rate: a structural mode"
             } else {
