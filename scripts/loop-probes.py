@@ -15,9 +15,19 @@ their rate and speed (`# fs_hz=… rpm=…`):
     twotone.csv        + 0.05 g at 437.3 Hz and 0.04 g at 1234.5 Hz
     band<lo>.csv       + white noise (0.6 x the record's RMS) through a 3rd-order
                        Butterworth band-pass 900-1300, 1800-2400 or 3800-4400 Hz
+    (fifteenth session, effects the generator does not have)
+    subsync.csv        + 0.08 g at 0.43 x shaft (a whirl, 12.9 Hz)
+    ftf.csv            + 0.06 g at 0.398 x shaft (the cage rate)
+    fm.csv             + 0.05 g at 900 Hz, frequency-modulated +-5 Hz at 1 Hz
+    am_slow.csv        the clean record amplitude-modulated 50 % at 2.7 Hz
+    bursts.csv         + 40 random impulses through a 3.0-3.6 kHz band-pass
+    beat.csv           + 0.04 g at 1000 and at 1003 Hz
+    mains60.csv        + 60, 120, 180 Hz (0.04, 0.01, 0.02 g)
+    clip.csv           clipped at 60 % of its peak
+    drift.csv          + 0.05 g offset and a 0.1 g ramp
 
 Then `pumptwin twin loop --input OUT_DIR/<name>.csv --out OUT_DIR/<name>`; the figures
-of the fourteenth session's note are each report.json's `steps`, `error_initial` and
+of the fourteenth and fifteenth sessions' notes are each report.json's `steps`, `error_initial` and
 `error_final`.
 """
 import sys
@@ -57,6 +67,22 @@ def main():
         b, a = butter(3, [lo / (fs / 2), hi / (fs / 2)], btype="band")
         noise = lfilter(b, a, rng.normal(0, 0.6 * clean.std(), len(clean)))
         write(out / f"band{lo}.csv", clean + noise, fs, rpm)
+
+    shaft = rpm / 60.0
+    write(out / "subsync.csv", clean + tone(0.43 * shaft, 0.08), fs, rpm)
+    write(out / "ftf.csv", clean + tone(0.398 * shaft, 0.06), fs, rpm)
+    fm = 0.05 * np.sin(2 * np.pi * 900 * t + 5 * np.sin(2 * np.pi * 1.0 * t))
+    write(out / "fm.csv", clean + fm, fs, rpm)
+    write(out / "am_slow.csv", clean * (1 + 0.5 * np.sin(2 * np.pi * 2.7 * t)), fs, rpm)
+    impulses = np.zeros_like(clean)
+    impulses[np.random.default_rng(7).choice(len(clean), 40, replace=False)] = 1.0
+    b, a = butter(2, [3000 / (fs / 2), 3600 / (fs / 2)], btype="band")
+    write(out / "bursts.csv", clean + 3 * lfilter(b, a, impulses), fs, rpm)
+    write(out / "beat.csv", clean + tone(1000, 0.04) + tone(1003, 0.04), fs, rpm)
+    write(out / "mains60.csv", clean + tone(60, 0.04) + tone(120, 0.01) + tone(180, 0.02), fs, rpm)
+    c = 0.6 * np.abs(clean).max()
+    write(out / "clip.csv", np.clip(clean, -c, c), fs, rpm)
+    write(out / "drift.csv", clean + 0.05 + 0.1 * t / t[-1], fs, rpm)
 
 
 if __name__ == "__main__":
