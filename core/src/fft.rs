@@ -127,17 +127,18 @@ fn stage_by_twiddle(buf: &mut [Complex32], len: usize, step: (f64, f64)) {
     let half = len / 2;
     let mut w = (1.0f64, 0.0f64);
     for j in 0..half {
-        let (wr, wi) = next_twiddle(&mut w, step);
+        let tw = next_twiddle(&mut w, step);
         let mut k = j;
         // `k + half < n` for every `k ≡ j (mod len)` below `n`, as `j < half`; the
         // checked accesses make that visible to the optimiser (no panic path).
         while let (Some(&a), Some(&b)) = (buf.get(k), buf.get(k + half)) {
-            let t = Complex32::new(b.re * wr - b.im * wi, b.re * wi + b.im * wr);
-            if let Some(x) = buf.get_mut(k) {
-                *x = Complex32::new(a.re + t.re, a.im + t.im);
+            let (mut x, mut y) = (a, b);
+            butterfly(&mut x, &mut y, tw);
+            if let Some(slot) = buf.get_mut(k) {
+                *slot = x;
             }
-            if let Some(y) = buf.get_mut(k + half) {
-                *y = Complex32::new(a.re - t.re, a.im - t.im);
+            if let Some(slot) = buf.get_mut(k + half) {
+                *slot = y;
             }
             k += len;
         }

@@ -232,6 +232,26 @@ fn loop_with_tone(f_hz: f64, amp_g: f64) -> LoopReport {
     loop_signal(x)
 }
 
+/// The loop on the clean record plus a tone of `amp_g` at `f_hz`, whose first step must
+/// be an unexplained tone placed within `tol_hz` of it.
+fn first_step_is_the_tone(f_hz: f64, amp_g: f64, tol_hz: f64) -> LoopReport {
+    let report = loop_with_tone(f_hz, amp_g);
+    let step = report.steps.first().unwrap_or_else(|| {
+        panic!(
+            "{f_hz:.2} Hz, {amp_g} g: nothing found ({})",
+            report.stop_reason
+        )
+    });
+    match step.detail {
+        Effect::UnexplainedPeriodic { f_hz: at, .. } => assert!(
+            (at - f_hz).abs() < tol_hz,
+            "{f_hz:.2} Hz, {amp_g} g: placed at {at} Hz"
+        ),
+        ref other => panic!("{f_hz:.2} Hz, {amp_g} g: named {other:?}"),
+    }
+    report
+}
+
 /// A tone nobody declared is found and placed at its frequency whatever its strength —
 /// a strong one's window leakage spreads far above the floor and once read as a band,
 /// which the loop dropped — and one 4 Hz under the shaft rate (0.86×) is not taken for
@@ -240,20 +260,7 @@ fn loop_with_tone(f_hz: f64, amp_g: f64) -> LoopReport {
 fn undeclared_tones_are_found_at_their_frequency() {
     let shaft = f64::from(RPM) / 60.0;
     for (f, amp) in [(437.3, 0.05), (437.3, 0.5), (0.86 * shaft, 0.1)] {
-        let report = loop_with_tone(f, amp);
-        let step = report
-            .steps
-            .first()
-            .unwrap_or_else(|| panic!("{f} Hz, {amp} g: nothing found ({})", report.stop_reason));
-        match step.detail {
-            Effect::UnexplainedPeriodic { f_hz, .. } => {
-                assert!(
-                    (f_hz - f).abs() < 0.75,
-                    "{f} Hz, {amp} g: placed at {f_hz} Hz"
-                )
-            }
-            ref other => panic!("{f} Hz, {amp} g: named {other:?}"),
-        }
+        let report = first_step_is_the_tone(f, amp, 0.75);
         assert!(
             !report.effects.iter().any(|e| e == "shaft_harmonics"),
             "{f} Hz, {amp} g: {:?}",
@@ -270,17 +277,7 @@ fn undeclared_tones_are_found_at_their_frequency() {
 #[test]
 fn tones_beside_the_defect_comb_are_found() {
     for f in [1509.0, 3011.7] {
-        let report = loop_with_tone(f, 0.05);
-        let step = report
-            .steps
-            .first()
-            .unwrap_or_else(|| panic!("{f} Hz: nothing found ({})", report.stop_reason));
-        match step.detail {
-            Effect::UnexplainedPeriodic { f_hz, .. } => {
-                assert!((f_hz - f).abs() < 1.5, "{f} Hz: placed at {f_hz} Hz")
-            }
-            ref other => panic!("{f} Hz: named {other:?}"),
-        }
+        first_step_is_the_tone(f, 0.05, 1.5);
     }
 }
 
@@ -292,18 +289,8 @@ fn tones_beside_the_defect_comb_are_found() {
 fn sub_synchronous_lines_are_found_and_named() {
     let shaft = f64::from(RPM) / 60.0;
     for order in [0.398, 0.43] {
-        let f = order * shaft;
-        let report = loop_with_tone(f, 0.06);
-        let step = report
-            .steps
-            .first()
-            .unwrap_or_else(|| panic!("{f:.2} Hz: nothing found ({})", report.stop_reason));
-        match step.detail {
-            Effect::UnexplainedPeriodic { f_hz, .. } => {
-                assert!((f_hz - f).abs() < 1.5, "{f:.2} Hz: placed at {f_hz} Hz")
-            }
-            ref other => panic!("{f:.2} Hz: named {other:?}"),
-        }
+        let report = first_step_is_the_tone(order * shaft, 0.06, 1.5);
+        let step = &report.steps[0];
         assert!(
             step.evidence.summary.contains("cage rate"),
             "{}",

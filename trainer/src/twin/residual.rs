@@ -245,16 +245,15 @@ pub fn significant_components(
             // residual keeps rising past the edge; a local maximum there is a line or
             // band of its own (a cage-rate line two bins above the low edge).
             let rises = |k: Option<usize>| k.and_then(|k| d.get(k)).is_some_and(|&v| v > d[peak]);
-            let (kind, width_bins) =
-                if peak == *bins.start() && peak > 0 && rises(peak.checked_sub(1)) {
-                    ("below_band", end - start + 1)
-                } else if peak == *bins.end() && rises(Some(peak + 1)) {
-                    ("above_band", end - start + 1)
-                } else if core_bins <= LINE_MAX_BINS {
-                    ("line", core_bins)
-                } else {
-                    ("band", end - start + 1)
-                };
+            let (kind, width_bins) = if peak == *bins.start() && rises(peak.checked_sub(1)) {
+                ("below_band", end - start + 1)
+            } else if peak == *bins.end() && rises(Some(peak + 1)) {
+                ("above_band", end - start + 1)
+            } else if core_bins <= LINE_MAX_BINS {
+                ("line", core_bins)
+            } else {
+                ("band", end - start + 1)
+            };
             Component {
                 domain,
                 kind,
@@ -1330,61 +1329,57 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
             );
         }
         let strength = b.excess_db + 3.0 * (b.width_hz / 100.0).min(5.0) as f32;
-        if narrow {
-            let note = "; narrower than a defect rate's sidebands, so its envelope cannot say what drives it";
-            if model.effects_of("extra_resonance").len() < MAX_EXTRA_MODES {
-                let mut ev = ev.clone();
-                ev.summary.push_str(note);
-                ev.summary.push_str(": a lightly damped structural mode, or (the rival reading) noise or a wandering tone at the sensor");
-                out.push(Candidate {
-                    effect: Effect::ExtraResonance { f_hz: b.f_hz },
-                    evidence: ev,
-                    strength,
-                    check: Check::Lines,
-                });
-            }
-            if model.effects_of("unexplained_band").len() < MAX_UNEXPLAINED_BANDS {
-                let mut ev = ev;
-                ev.summary.push_str(note);
-                ev.summary.push_str(": a tone whose frequency wanders (a drive's or belt's speed) or narrow noise at the sensor, or (the rival reading) a lightly damped mode");
-                out.push(Candidate {
-                    effect: Effect::UnexplainedBand {
-                        f_hz: b.centre_hz.unwrap_or(b.f_hz),
-                        bandwidth_hz: b.width_hz.max(2.0 * df),
-                    },
-                    evidence: ev,
-                    strength: strength - 0.5,
-                    check: Check::Lines,
-                });
-            }
-        } else if structural && model.effects_of("extra_resonance").len() < MAX_EXTRA_MODES {
-            ev.summary.push_str(if carried.is_some() {
+        // The readings offered: a structural mode, a band added at the sensor, or (a
+        // narrow band, whose envelope cannot tell) both, each with what says so.
+        let narrow_note =
+            "; narrower than a defect rate's sidebands, so its envelope cannot say what drives it";
+        let (as_mode, as_band) = if narrow {
+            (
+                Some(format!("{narrow_note}: a lightly damped structural mode, or (the rival reading) noise or a wandering tone at the sensor")),
+                Some(format!("{narrow_note}: a tone whose frequency wanders (a drive's or belt's speed) or narrow noise at the sensor, or (the rival reading) a lightly damped mode")),
+            )
+        } else if structural {
+            let why = if carried.is_some() {
                 "; its envelope carries the defect rate: a structural mode"
             } else {
                 "; resonance-shaped: a structural mode"
-            });
-            out.push(Candidate {
-                effect: Effect::ExtraResonance { f_hz: b.f_hz },
-                evidence: ev,
-                strength,
-                check: Check::Lines,
-            });
-        } else if !structural && model.effects_of("unexplained_band").len() < MAX_UNEXPLAINED_BANDS
-        {
-            ev.summary.push_str(match dilution {
+            };
+            (Some(why.to_string()), None)
+        } else {
+            let why = match dilution {
                 Some(d) if diluted => {
                     format!("; it dilutes the defect rate in the band's envelope by {d:.1} dB against the model's: added at the sensor, not excited by the impacts: unexplained")
                 }
                 _ => "; not excited by the defect: unexplained".to_string(),
-            }
-            .as_str());
+            };
+            (None, Some(why))
+        };
+        let with = |why: &str| {
+            let mut ev = ev.clone();
+            ev.summary.push_str(why);
+            ev
+        };
+        if let Some(why) =
+            as_mode.filter(|_| model.effects_of("extra_resonance").len() < MAX_EXTRA_MODES)
+        {
+            out.push(Candidate {
+                effect: Effect::ExtraResonance { f_hz: b.f_hz },
+                evidence: with(&why),
+                strength,
+                check: Check::Lines,
+            });
+        }
+        if let Some(why) =
+            as_band.filter(|_| model.effects_of("unexplained_band").len() < MAX_UNEXPLAINED_BANDS)
+        {
             out.push(Candidate {
                 effect: Effect::UnexplainedBand {
                     f_hz: b.centre_hz.unwrap_or(b.f_hz),
                     bandwidth_hz: b.width_hz.max(2.0 * df),
                 },
-                evidence: ev,
-                strength: strength - 2.0,
+                evidence: with(&why),
+                // Below the mode; a narrow band's two readings are near equals.
+                strength: strength - if narrow { 0.5 } else { 2.0 },
                 check: Check::Lines,
             });
         }
