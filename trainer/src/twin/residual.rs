@@ -764,6 +764,77 @@ fn load_zone_line(f: f64, fd: f64, fm: f64, tol: f64) -> bool {
     })
 }
 
+/// An amplitude modulation of the impacts read off the residual's envelope.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeasuredModulation {
+    /// Modulation rate, Hz: the envelope line's frequency.
+    pub rate_hz: f64,
+    /// Sidebands `k·f_d ± rate` (k ≤ 5) matched.
+    pub sidebands: usize,
+    /// The line at the rate, then its sidebands.
+    pub lines: Vec<Component>,
+}
+
+/// Fewest sidebands `k·f_d ± f_m` that make a low envelope line a modulation rate.
+pub const MIN_MODULATION_SIDEBANDS: usize = 3;
+
+/// The impacts' modulation rate as the residual's envelope shows it, where it need
+/// not be a kinematic one. A product of the impact train (comb `k·f_d`) and a slow
+/// modulation at `f_m` has envelope lines at `f_m` itself and at `k·f_d ± f_m`; a sum
+/// of two sources (a second train, a tone) has no such sidebands, so the pattern —
+/// a line below `f_d / 2` and at least [`MIN_MODULATION_SIDEBANDS`] sidebands at its
+/// spacing — names a modulation and reads its rate. Candidate rates are the envelope
+/// lines below `f_d / 2`, and the residual's rise at its low edge (`below_band`: a
+/// rate of one or two envelope bins, where the Welch block cannot tell it from DC),
+/// each read again by `refine` (on a longer block; the sidebands themselves sit a bin
+/// or two from comb teeth, where the tooth's own lobe pulls their peaks outward, so
+/// their spacing overstates the rate). Rates within 1.5 envelope bins of one in
+/// `known` (the kinematic rate, the shaft) are left to the kinematic reading.
+/// A sideband lies within 1.5 bins or 1 % of `k·f_d ± f_m` and more than `f_m / 2`
+/// from the tooth (a tooth is not its own sideband); a rate under two bins puts its
+/// sidebands inside the tooth's lobe, and the residual's peaks then sit at the lobe's
+/// flanks, up to 1.5 bins outside `± f_m`.
+pub fn measured_modulation(
+    envelope: &[Component],
+    fd: f64,
+    known: &[f64],
+    dfe: f64,
+    refine: impl Fn(f64) -> Option<f64>,
+) -> Option<MeasuredModulation> {
+    let lines: Vec<&Component> = envelope.iter().filter(|c| c.kind == "line").collect();
+    envelope
+        .iter()
+        .filter(|c| matches!(c.kind, "line" | "below_band") && c.f_hz < 0.5 * fd)
+        .filter_map(|low| {
+            let fm = refine(low.f_hz).unwrap_or(low.f_hz);
+            if known.iter().any(|k| (fm - k).abs() <= 1.5 * dfe) {
+                return None;
+            }
+            let side: Vec<Component> = lines
+                .iter()
+                .filter(|c| c.f_hz > 0.5 * fd)
+                .filter(|c| {
+                    let tol = (1.5 * dfe).max(0.01 * c.f_hz);
+                    (1..=5).any(|k| {
+                        let off = (c.f_hz - f64::from(k) * fd).abs();
+                        off > 0.5 * fm && (off - fm).abs() < tol
+                    })
+                })
+                .map(|c| (*c).clone())
+                .collect();
+            (side.len() >= MIN_MODULATION_SIDEBANDS).then(|| MeasuredModulation {
+                rate_hz: fm,
+                sidebands: side.len(),
+                lines: std::iter::once((*low).clone()).chain(side).collect(),
+            })
+        })
+        .max_by(|a, b| {
+            a.sidebands
+                .cmp(&b.sidebands)
+                .then(a.lines[0].excess_db.total_cmp(&b.lines[0].excess_db))
+        })
+}
+
 /// A second impact train read off the residual's envelope lines.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SecondTrain {
@@ -1390,6 +1461,7 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
         let fd = f64::from(model.op.freqs.impact_rate(loc));
         let fm = f64::from(model.op.freqs.modulation_rate(loc));
         let fm = if fm > 0.0 { fm } else { shaft };
+        let fd = fd * (1.0 + model.get("rate_factor").unwrap_or(0.0));
         let dfe = f64::from(fs) / ctx.cfg.env_n as f64;
         let side: Vec<Component> = analysis
             .envelope
@@ -1398,7 +1470,57 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
             .filter(|c| load_zone_line(c.f_hz, fd, fm, (2.0 * dfe).max(0.01 * c.f_hz)))
             .cloned()
             .collect();
-        if !side.is_empty() && loc != DefectLocation::OuterRace || side.len() >= 2 {
+        let kinematic = !side.is_empty() && loc != DefectLocation::OuterRace || side.len() >= 2;
+        // A slow rate read again on the longest block the record holds (4 s at 12 kHz:
+        // 0.37 Hz bins against the Welch block's 1.46 Hz), within a residual bin of
+        // where the residual put it and three long bins clear of DC.
+        let n_long = block_within(1 << 17, ctx.x.len(), 1);
+        // In dB: a parabola through a Hann line's log levels finds its centre to a few
+        // hundredths of a bin; through its powers, to a fifth.
+        let long = band_envelope_spectrum(
+            ctx.x,
+            fs,
+            ctx.cfg.env_band.lo_hz,
+            ctx.cfg.env_band.hi_hz,
+            n_long,
+        )
+        .map(|(spec, dfl)| (to_db(&spec, &spec), dfl));
+        let refine = |f0: f64| -> Option<f64> {
+            let (spec, dfl) = long.as_ref()?;
+            let lo = (f0 - dfe).max(3.0 * f64::from(*dfl));
+            let f = peak_frequency(spec, fs, lo as f32, (f0 + dfe) as f32).ok()?;
+            Some(f64::from(f))
+        };
+        let measured = measured_modulation(&analysis.envelope, fd, &[fm, shaft], dfe, refine)
+            .filter(|m| !kinematic || m.sidebands > side.len());
+        if let Some(m) = measured {
+            let strength = m.lines.iter().map(|c| c.excess_db).fold(0.0, f32::max);
+            let ftf = f64::from(model.op.freqs.ftf);
+            let source = if (m.rate_hz - ftf).abs() < (1.5 * dfe).max(NAMED_RATE_TOLERANCE * ftf) {
+                "the cage rate: the load zone turns with the cage (a cage or rolling-element defect, or a cage that slips)".to_string()
+            } else {
+                format!(
+                    "{:.3} x shaft, no rate of the bearing or the shaft: the load on the bearing varies at this rate (a process pulsation, a beat with a machine running at a nearly equal speed, a belt or a foundation's rocking)",
+                    m.rate_hz / shaft
+                )
+            };
+            let mut figures = serde_json::Map::new();
+            figures.insert("sidebands".into(), serde_json::json!(m.sidebands));
+            figures.insert("kinematic_rate_hz".into(), serde_json::json!(fm));
+            out.push(Candidate {
+                effect: Effect::LoadZoneModulation { mod_hz: m.rate_hz },
+                evidence: Evidence {
+                    summary: format!(
+                        "an envelope line at {:.2} Hz and {} sideband(s) k·{fd:.1} ± {:.2} Hz around the modelled comb: the impacts are amplitude-modulated at {:.2} Hz = {source}",
+                        m.rate_hz, m.sidebands, m.rate_hz, m.rate_hz
+                    ),
+                    components: m.lines,
+                    figures,
+                },
+                strength,
+                check: Check::Lines,
+            });
+        } else if kinematic {
             let strength = side.iter().map(|c| c.excess_db).fold(0.0, f32::max);
             out.push(Candidate {
                 effect: Effect::LoadZoneModulation { mod_hz: fm },
@@ -1555,4 +1677,56 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
 
     out.sort_by(|a, b| b.strength.total_cmp(&a.strength));
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn line(f_hz: f64) -> Component {
+        Component {
+            domain: "envelope",
+            kind: "line",
+            f_hz,
+            width_hz: 1.46,
+            excess_db: 12.0,
+            order: f_hz / 29.95,
+            centre_hz: None,
+        }
+    }
+
+    const FD: f64 = 107.4;
+    const DFE: f64 = 1.46;
+
+    /// A product (the comb modulated at 4.1 Hz) has its rate and sidebands on both
+    /// sides of each tooth; the rate is read from the low line, refined.
+    #[test]
+    fn a_product_of_comb_and_slow_rate_is_a_modulation() {
+        let mut env = vec![line(4.05)];
+        for k in 1..=3 {
+            let tooth = f64::from(k) * FD;
+            env.extend([line(tooth - 4.4), line(tooth + 4.3)]);
+        }
+        let m =
+            measured_modulation(&env, FD, &[29.95], DFE, |f| Some(f + 0.05)).expect("a modulation");
+        assert!((m.rate_hz - 4.1).abs() < 1e-9, "{}", m.rate_hz);
+        assert_eq!((m.sidebands, m.lines.len()), (6, 7));
+    }
+
+    /// A sum has no sidebands: a low line beside an unrelated train's harmonics (a
+    /// second source at 47 Hz) is no modulation, nor is a low line at the shaft rate
+    /// (the kinematic reading's), nor sidebands without the low line.
+    #[test]
+    fn a_sum_or_a_known_rate_is_not_a_measured_modulation() {
+        let sum: Vec<Component> = [4.1, 47.0, 94.0, 141.0, 188.0].map(line).to_vec();
+        assert!(measured_modulation(&sum, FD, &[29.95], DFE, |_| None).is_none());
+        let mut shaft = vec![line(29.9)];
+        for k in 1..=3 {
+            let tooth = f64::from(k) * FD;
+            shaft.extend([line(tooth - 29.95), line(tooth + 29.95)]);
+        }
+        assert!(measured_modulation(&shaft, FD, &[29.95], DFE, |_| None).is_none());
+        let no_low: Vec<Component> = shaft[1..].to_vec();
+        assert!(measured_modulation(&no_low, FD, &[29.95], DFE, |_| None).is_none());
+    }
 }
