@@ -17,6 +17,7 @@ use pumptwin_core::excitation::{
     CompositeExcitation, ImpactTrain, RandomExcitation, ShaftSinusoid, TimeGrid,
 };
 use pumptwin_core::features::{node_features, FeatureConfig, FeatureScratch, FEATURE_DIM};
+use pumptwin_core::fft::{fft_walked, Complex32, Direction};
 use pumptwin_core::graph::{build_dynamic_graphs, Adjacency, GraphConfig, NodeMask};
 use pumptwin_core::rng::Xoshiro128pp;
 use pumptwin_core::simulator::{Bearing2Dof, BearingParams, Real, State};
@@ -199,6 +200,31 @@ fn features_graph_window_seconds(noise_compensation: bool) -> f64 {
     secs / reps as f64
 }
 
+/// Seconds per forward FFT of `n` points with each memory walk: `(by twiddle, by
+/// block)` — the stages with 64 twiddles or more walking the buffer once per twiddle
+/// (strided) or block by block with 64 twiddles held; the library blocks from 8192
+/// points (`fft::fft_walked`).
+fn fft_walks(n: usize) -> (f64, f64) {
+    let mut rng = Xoshiro128pp::seed_from_u64(9);
+    let x: Vec<Complex32> = (0..n)
+        .map(|_| Complex32::new(rng.normal() as f32, 0.0))
+        .collect();
+    let reps = (1 << 22) / n;
+    let mut buf = x.clone();
+    let mut time = |blocked_from: usize| {
+        best_of(0.3, || {
+            for _ in 0..reps {
+                buf.copy_from_slice(&x);
+                fft_walked(&mut buf, Direction::Forward, blocked_from).expect("power of two");
+            }
+            buf[1].re
+        }) / reps as f64
+    };
+    let strided = time(usize::MAX);
+    let blocked = time(0);
+    (strided, blocked)
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let arg = |name: &str| {
@@ -239,6 +265,21 @@ fn main() {
         "| the same without the noise-floor compensation | {:.1} us/window |",
         win_raw * 1e6
     );
+    let walks: Vec<(usize, f64, f64)> = [2048usize, 4096, 8192, 32768]
+        .iter()
+        .map(|&n| {
+            let (s, b) = fft_walks(n);
+            (n, s, b)
+        })
+        .collect();
+    for (n, s, b) in &walks {
+        println!(
+            "| FFT {n} points: by twiddle / by block (ratio) | {:.1} / {:.1} us ({:.2}x) |",
+            s * 1e6,
+            b * 1e6,
+            b / s
+        );
+    }
     if let Some(path) = arg("--json") {
         let json = format!(
             "{{\n  \"rk4_f64_steps_per_s\": {r64:.0},\n  \"rk4_f32_steps_per_s\": {r32:.0},\n  \"rk4_f64_end_to_end_steps_per_s\": {e2e:.0},\n  \"features_graph_s_per_window\": {win:.9},\n  \"features_graph_no_compensation_s_per_window\": {win_raw:.9},\n  \"h_s\": {H:.12e},\n  \"steps\": {STEPS}\n}}\n"

@@ -62,6 +62,17 @@ const BLOCKED_FROM: usize = 8192;
 /// # Errors
 /// [`Error::NotPowerOfTwo`] for any other length.
 pub fn fft_in_place(buf: &mut [Complex32], direction: Direction) -> Result<()> {
+    fft_walked(buf, direction, BLOCKED_FROM)
+}
+
+/// [`fft_in_place`] with the stages of `half ≥ 64` twiddles going block by block from
+/// length `blocked_from` (the library uses [`BLOCKED_FROM`]): `usize::MAX` walks every
+/// stage by twiddle, `0` blocks every stage that has enough twiddles. The results are
+/// the same bit for bit; only the memory walk differs. For the bench that measures
+/// the two walks side by side (`cargo bench -p pumptwin-core --bench core_bench`) and
+/// the test that they agree.
+#[doc(hidden)]
+pub fn fft_walked(buf: &mut [Complex32], direction: Direction, blocked_from: usize) -> Result<()> {
     let n = buf.len();
     if n < 2 || !n.is_power_of_two() {
         return Err(Error::NotPowerOfTwo(n));
@@ -84,7 +95,7 @@ pub fn fft_in_place(buf: &mut [Complex32], direction: Direction) -> Result<()> {
         let half = len / 2;
         let theta = sign * 2.0 * math::PI / len as f64;
         let (step_re, step_im) = (math::cos(theta), math::sin(theta));
-        if half < TWIDDLE_RUN || n < BLOCKED_FROM {
+        if half < TWIDDLE_RUN || n < blocked_from {
             stage_by_twiddle(buf, len, (step_re, step_im));
         } else {
             stage_by_block(buf, len, (step_re, step_im));
@@ -302,6 +313,24 @@ mod tests {
                 })
                 .fold(0.0, f64::max);
             assert!(max_err / rms < 2e-5, "n {n}: rel err {}", max_err / rms);
+        }
+    }
+
+    /// The two memory walks give the same spectrum bit for bit, at every size from
+    /// one where no stage is blocked to the twin's longest envelope block, both ways.
+    #[test]
+    fn both_walks_are_bit_identical() {
+        for &n in &[256usize, 4096, 8192, 32768] {
+            let x = random_signal(n, 17);
+            for dir in [Direction::Forward, Direction::Inverse] {
+                let (mut strided, mut blocked) = (x.clone(), x.clone());
+                fft_walked(&mut strided, dir, usize::MAX).unwrap();
+                fft_walked(&mut blocked, dir, 0).unwrap();
+                let same = strided.iter().zip(&blocked).all(|(a, b)| {
+                    a.re.to_bits() == b.re.to_bits() && a.im.to_bits() == b.im.to_bits()
+                });
+                assert!(same, "n {n} {dir:?}: the walks differ");
+            }
         }
     }
 
