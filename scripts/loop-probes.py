@@ -25,9 +25,14 @@ their rate and speed (`# fs_hz=… rpm=…`):
     mains60.csv        + 60, 120, 180 Hz (0.04, 0.01, 0.02 g)
     clip.csv           clipped at 60 % of its peak
     drift.csv          + 0.05 g offset and a 0.1 g ramp
+    (sixteenth session)
+    am_<f>_<d>.csv     the clean record amplitude-modulated at f = 1.8, 4.2, 6.1, 9.5 Hz
+                       (depth d): a load that swells and fades at no kinematic rate
+    rb<n>.csv          + n = 100, 200, 400 random ring-downs (3.3 kHz, 600 Hz wide,
+                       random strength): bursts over the structure's band
 
 Then `pumptwin twin loop --input OUT_DIR/<name>.csv --out OUT_DIR/<name>`; the figures
-of the fourteenth and fifteenth sessions' notes are each report.json's `steps`, `error_initial` and
+of the fourteenth to sixteenth sessions' notes are each report.json's `steps`, `error_initial` and
 `error_final`.
 """
 import sys
@@ -83,6 +88,20 @@ def main():
     c = 0.6 * np.abs(clean).max()
     write(out / "clip.csv", np.clip(clean, -c, c), fs, rpm)
     write(out / "drift.csv", clean + 0.05 + 0.1 * t / t[-1], fs, rpm)
+
+    # Sixteenth session: modulation at rates no kinematics name, ring-down bursts.
+    for f, d in ((1.8, 0.5), (4.2, 0.2), (6.1, 0.3), (9.5, 0.4)):
+        write(out / f"am_{f}_{d}.csv", clean * (1 + d * np.sin(2 * np.pi * f * t)), fs, rpm)
+    rng = np.random.default_rng(11)
+    tau = 1 / (np.pi * 600)
+    h = np.exp(-np.arange(int(8 * tau * fs)) / fs / tau) * np.sin(
+        2 * np.pi * 3300 * np.arange(int(8 * tau * fs)) / fs
+    )
+    for n, a in ((200, 1.0), (100, 1.5), (400, 0.7)):
+        y = clean.copy()
+        for p in rng.choice(len(clean) - len(h), n, replace=False):
+            y[p : p + len(h)] += a * rng.uniform(0.5, 1.5) * h
+        write(out / f"rb{n}.csv", y, fs, rpm)
 
 
 if __name__ == "__main__":
