@@ -705,3 +705,60 @@ fn effects_added_to_a_measured_record_are_found() {
         assert!(step.error_after.psd_log_rmse_db < step.error_before.psd_log_rmse_db);
     }
 }
+
+/// What a loop run leaves on disk: `report.json` with the documented keys, the plots,
+/// and `psd.csv` — one row per compared PSD bin, finite, the final model's column the
+/// one whose error the report states.
+#[test]
+fn a_loop_run_writes_its_report_plots_and_spectra() {
+    let x = generate(Injected::None, Strength::Realistic, 4.0, 41).expect("generator");
+    let input = LoopInput {
+        signal: x,
+        fs_hz: FS_HZ,
+        rpm: RPM,
+        bearing: BearingGeometry::CWRU_6205_DE,
+    };
+    let (report, artifacts) = run(&input, &LoopConfig::default()).expect("loop");
+    let dir = std::env::temp_dir().join(format!("pumptwin-loop-files-{}", std::process::id()));
+    pumptwin_trainer::twin::report::write(&dir, &report, &artifacts, &[]).expect("write");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).expect("json"))
+            .expect("parses");
+    for key in [
+        "fault",
+        "steps",
+        "error_initial",
+        "error_final",
+        "residual_noise_like",
+        "psd_scatter_db",
+        "stop_reason",
+    ] {
+        assert!(json.get(key).is_some(), "report.json lacks {key}");
+    }
+    for png in [
+        "psd_before.png",
+        "psd_after.png",
+        "envelope_before.png",
+        "envelope_after.png",
+        "residual.png",
+    ] {
+        assert!(
+            dir.join(png).metadata().is_ok_and(|m| m.len() > 1000),
+            "{png}"
+        );
+    }
+    let csv = std::fs::read_to_string(dir.join("psd.csv")).expect("psd.csv");
+    let mut lines = csv.lines();
+    assert_eq!(
+        lines.next(),
+        Some("f_hz,measured_db,model_first_db,model_final_db")
+    );
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|v| v.parse().expect("a number")).collect())
+        .collect();
+    assert_eq!(rows.len(), artifacts.cfg.psd_bins().count());
+    assert!(rows
+        .iter()
+        .all(|r| r.len() == 4 && r.iter().all(|v| v.is_finite())));
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -5,7 +5,8 @@ use crate::plot::{line_plot, PlotSpec, Series};
 use std::path::Path;
 
 /// Write `dir/report.json`, `psd_before.png`, `psd_after.png`, `envelope_before.png`,
-/// `envelope_after.png` and `residual.png`.
+/// `envelope_after.png`, `residual.png`, and the power spectra behind the plots as
+/// `psd.csv` (`f_hz,measured_db,model_first_db,model_final_db`) for re-plotting.
 pub fn write(
     dir: &Path,
     report: &LoopReport,
@@ -50,6 +51,12 @@ pub fn write(
             when,
         )?;
     }
+    let (first, last) = (psd_pairs(a, &a.initial), psd_pairs(a, &a.final_));
+    let mut csv = String::from("f_hz,measured_db,model_first_db,model_final_db\n");
+    for (p, q) in first.iter().zip(&last) {
+        csv.push_str(&format!("{:.3},{:.3},{:.3},{:.3}\n", p.0, p.1, p.2, q.2));
+    }
+    std::fs::write(dir.join("psd.csv"), csv)?;
     let series = vec![Series {
         label: "measured − final model".into(),
         points: a.residual.psd_residual.clone(),
