@@ -10,7 +10,9 @@
 //! - clean control: no effect claimed, and the residual is noise-like.
 
 use pumptwin_core::bearing::BearingGeometry;
-use pumptwin_trainer::twin::closed_loop::{note_clipping, run, LoopConfig, LoopInput, LoopReport};
+use pumptwin_trainer::twin::closed_loop::{
+    note_clipping, run, LoopConfig, LoopInput, LoopReport, LoopStep,
+};
 use pumptwin_trainer::twin::generate::{generate, Injected, Strength, FS_HZ, RPM};
 use pumptwin_trainer::twin::model::Effect;
 
@@ -24,6 +26,20 @@ fn loop_signal(signal: Vec<f32>) -> LoopReport {
         bearing: BearingGeometry::CWRU_6205_DE,
     };
     run(&input, &LoopConfig::default()).expect("loop").0
+}
+
+/// The clean control record the probe tests add their effect to: the generator's
+/// outer-race fault exactly as the base model describes it, 4 s, seed 41.
+fn clean_record() -> Vec<f32> {
+    generate(Injected::None, Strength::Realistic, 4.0, 41).expect("generator")
+}
+
+/// The loop's first added effect, or a panic naming `what` and why the loop stopped.
+fn first_step<'a>(report: &'a LoopReport, what: &str) -> &'a LoopStep {
+    report
+        .steps
+        .first()
+        .unwrap_or_else(|| panic!("{what}: nothing found ({})", report.stop_reason))
 }
 
 fn loop_on(effect: Injected, strength: Strength, seed: u64) -> LoopReport {
@@ -227,7 +243,7 @@ fn add_tones(x: &mut [f32], fs_hz: f32, tones: &[(f64, f64, f64)]) {
 
 /// The clean record plus one sinusoid of `amp_g` at `f_hz`, looped.
 fn loop_with_tone(f_hz: f64, amp_g: f64) -> LoopReport {
-    let mut x = generate(Injected::None, Strength::Realistic, 4.0, 41).expect("generator");
+    let mut x = clean_record();
     add_tones(&mut x, FS_HZ, &[(f_hz, amp_g, 0.0)]);
     loop_signal(x)
 }
@@ -236,12 +252,7 @@ fn loop_with_tone(f_hz: f64, amp_g: f64) -> LoopReport {
 /// be an unexplained tone placed within `tol_hz` of it.
 fn first_step_is_the_tone(f_hz: f64, amp_g: f64, tol_hz: f64) -> LoopReport {
     let report = loop_with_tone(f_hz, amp_g);
-    let step = report.steps.first().unwrap_or_else(|| {
-        panic!(
-            "{f_hz:.2} Hz, {amp_g} g: nothing found ({})",
-            report.stop_reason
-        )
-    });
+    let step = first_step(&report, &format!("{f_hz:.2} Hz, {amp_g} g"));
     match step.detail {
         Effect::UnexplainedPeriodic { f_hz: at, .. } => assert!(
             (at - f_hz).abs() < tol_hz,
@@ -321,7 +332,7 @@ fn sub_synchronous_lines_are_found_and_named() {
 /// the clean record's.
 #[test]
 fn a_wandering_tone_is_a_narrow_band() {
-    let mut x = generate(Injected::None, Strength::Realistic, 4.0, 41).expect("generator");
+    let mut x = clean_record();
     let clean = loop_signal(x.clone());
     for (i, v) in x.iter_mut().enumerate() {
         let t = i as f64 / f64::from(FS_HZ);
@@ -330,10 +341,7 @@ fn a_wandering_tone_is_a_narrow_band() {
         *v += (0.05 * phase.sin()) as f32;
     }
     let report = loop_signal(x);
-    let step = report
-        .steps
-        .first()
-        .unwrap_or_else(|| panic!("nothing found ({})", report.stop_reason));
+    let step = first_step(&report, "the wandering tone");
     let centre = match step.detail {
         Effect::UnexplainedBand { f_hz, .. } | Effect::ExtraResonance { f_hz } => f_hz,
         ref other => panic!("named {other:?}"),
@@ -357,7 +365,7 @@ fn a_wandering_tone_is_a_narrow_band() {
 /// to within 0.3 dB of the clean record's.
 #[test]
 fn a_slow_load_variation_is_a_modulation_at_its_own_rate() {
-    let clean_x = generate(Injected::None, Strength::Realistic, 4.0, 41).expect("generator");
+    let clean_x = clean_record();
     let clean = loop_signal(clean_x.clone());
     for (rate, depth) in [(1.8, 0.5), (6.1, 0.3)] {
         let x: Vec<f32> = clean_x
@@ -369,10 +377,7 @@ fn a_slow_load_variation_is_a_modulation_at_its_own_rate() {
             })
             .collect();
         let report = loop_signal(x);
-        let step = report
-            .steps
-            .first()
-            .unwrap_or_else(|| panic!("{rate} Hz: nothing found ({})", report.stop_reason));
+        let step = first_step(&report, &format!("{rate} Hz"));
         let Effect::LoadZoneModulation { mod_hz } = step.detail else {
             panic!("{rate} Hz: named {:?}", step.detail);
         };
@@ -402,7 +407,7 @@ fn a_slow_load_variation_is_a_modulation_at_its_own_rate() {
 /// loop once stopped after the first with the second in plain sight.
 #[test]
 fn two_undeclared_tones_are_both_found() {
-    let mut x = generate(Injected::None, Strength::Realistic, 4.0, 41).expect("generator");
+    let mut x = clean_record();
     add_tones(&mut x, FS_HZ, &[(437.3, 0.05, 0.0), (1234.5, 0.04, 1.0)]);
     let report = loop_signal(x);
     let mut found: Vec<f64> = report
@@ -579,7 +584,7 @@ fn dropouts_are_not_called_noise() {
 /// spread misfit remains. The clean record stays noise-like under the same rule.
 #[test]
 fn random_bursts_over_the_structure_are_not_called_noise() {
-    let clean_x = generate(Injected::None, Strength::Realistic, 4.0, 41).expect("generator");
+    let clean_x = clean_record();
     let clean = loop_signal(clean_x.clone());
     assert!(clean.residual_noise_like, "{}", clean.stop_reason);
     let mut x = clean_x;
@@ -711,7 +716,7 @@ fn effects_added_to_a_measured_record_are_found() {
 /// one whose error the report states.
 #[test]
 fn a_loop_run_writes_its_report_plots_and_spectra() {
-    let x = generate(Injected::None, Strength::Realistic, 4.0, 41).expect("generator");
+    let x = clean_record();
     let input = LoopInput {
         signal: x,
         fs_hz: FS_HZ,

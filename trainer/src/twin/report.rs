@@ -18,9 +18,10 @@ pub fn write(
         dir.join("report.json"),
         serde_json::to_string_pretty(report)? + "\n",
     )?;
-    for (name, sig, when) in [
-        ("before", &a.initial, "first fit"),
-        ("after", &a.final_, "final model"),
+    let (first, last) = (psd_pairs(a, &a.initial), psd_pairs(a, &a.final_));
+    for (name, sig, psd_points, when) in [
+        ("before", &a.initial, &first, "first fit"),
+        ("after", &a.final_, &last, "final model"),
     ] {
         let psd = PlotSpec {
             title: "",
@@ -33,7 +34,7 @@ pub fn write(
             &dir.join(format!("psd_{name}.png")),
             "power spectrum",
             &psd,
-            &psd_pairs(a, sig),
+            psd_points,
             when,
         )?;
         let env = PlotSpec {
@@ -51,7 +52,6 @@ pub fn write(
             when,
         )?;
     }
-    let (first, last) = (psd_pairs(a, &a.initial), psd_pairs(a, &a.final_));
     let mut csv = String::from("f_hz,measured_db,model_first_db,model_final_db\n");
     for (p, q) in first.iter().zip(&last) {
         csv.push_str(&format!("{:.3},{:.3},{:.3},{:.3}\n", p.0, p.1, p.2, q.2));

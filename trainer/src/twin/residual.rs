@@ -1476,17 +1476,22 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
         // where the residual put it and three long bins clear of DC.
         let n_long = block_within(1 << 17, ctx.x.len(), 1);
         // In dB: a parabola through a Hann line's log levels finds its centre to a few
-        // hundredths of a bin; through its powers, to a fifth.
-        let long = band_envelope_spectrum(
-            ctx.x,
-            fs,
-            ctx.cfg.env_band.lo_hz,
-            ctx.cfg.env_band.hi_hz,
-            n_long,
-        )
-        .map(|(spec, dfl)| (to_db(&spec, &spec), dfl));
+        // hundredths of a bin; through its powers, to a fifth. Computed only when a
+        // candidate rate asks for it (most rounds have none).
+        let long = std::cell::OnceCell::new();
         let refine = |f0: f64| -> Option<f64> {
-            let (spec, dfl) = long.as_ref()?;
+            let (spec, dfl) = long
+                .get_or_init(|| {
+                    band_envelope_spectrum(
+                        ctx.x,
+                        fs,
+                        ctx.cfg.env_band.lo_hz,
+                        ctx.cfg.env_band.hi_hz,
+                        n_long,
+                    )
+                    .map(|(spec, dfl)| (to_db(&spec, &spec), dfl))
+                })
+                .as_ref()?;
             let lo = (f0 - dfe).max(3.0 * f64::from(*dfl));
             let f = peak_frequency(spec, fs, lo as f32, (f0 + dfe) as f32).ok()?;
             Some(f64::from(f))
