@@ -97,11 +97,29 @@ pub struct ExtraTerms {
     /// (flow noise, cavitation, a neighbour's broadband): a sum of sinusoids 1 Hz
     /// apart across the band with random phases, independent per node.
     pub output_band: Option<(f64, f64, f32)>,
+    /// Output-side random bursts on every node (a pump's cavitation, debris struck
+    /// through the flow): ring-downs at Poisson times, independent per node.
+    pub output_bursts: Option<OutputBursts>,
     /// Linear speed drift (fraction per second) of impacts and shaft terms.
     pub speed_drift_per_s: f64,
     /// Further impact trains in the radial force (a second defect, a rub, impacts from
     /// a neighbouring machine), each with its own rate, level and modulation.
     pub impact_trains: Vec<ImpactTrain>,
+}
+
+/// Ring-downs at random (Poisson) times added at the sensor: the collapse of vapour
+/// bubbles in a cavitating pump, or debris carried through it, strike the casing at no
+/// rate of the machine, each ringing a casing mode of its own.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OutputBursts {
+    /// Mean burst rate, per second.
+    pub rate_hz: f64,
+    /// Ring frequency, Hz.
+    pub f_hz: f64,
+    /// −3 dB bandwidth of the ring (decay time `1 / (π·bandwidth)`), Hz.
+    pub bandwidth_hz: f64,
+    /// Mean peak amplitude, output units (each burst's is uniform in 0.5–1.5 × it).
+    pub amplitude: f32,
 }
 
 /// Errors from a simulation.
@@ -309,6 +327,9 @@ pub fn simulate(spec: &SimulationSpec) -> Result<Recording, SimError> {
         if let Some((lo, hi, rms)) = spec.extra.output_band {
             add_multisine_band(&mut out, f64::from(spec.fs_hz), lo, hi, rms, &mut rng)?;
         }
+        if let Some(bursts) = spec.extra.output_bursts {
+            add_bursts(&mut out, f64::from(spec.fs_hz), bursts, &mut rng)?;
+        }
         if spec.measurement_noise > 0.0 {
             for v in out.iter_mut() {
                 *v += spec.measurement_noise * rng.normal() as f32;
@@ -359,6 +380,43 @@ fn add_multisine_band(
         }
     }
     Ok(())
+}
+
+/// Add ring-downs `a·e^{−π·B·t}·sin 2π f t` at Poisson times of mean rate `bursts.rate_hz`.
+fn add_bursts(
+    out: &mut [f32],
+    fs: f64,
+    bursts: OutputBursts,
+    rng: &mut Xoshiro128pp,
+) -> Result<(), SimError> {
+    let OutputBursts {
+        rate_hz,
+        f_hz,
+        bandwidth_hz,
+        amplitude,
+    } = bursts;
+    if !(rate_hz > 0.0 && f_hz > 0.0 && f_hz < 0.5 * fs && bandwidth_hz > 0.0) {
+        return Err(SimError::Invalid(format!(
+            "output bursts at {rate_hz}/s ringing at {f_hz} Hz, {bandwidth_hz} Hz wide: \
+             need a rate > 0, 0 < ring < fs/2 and a width > 0"
+        )));
+    }
+    let decay = std::f64::consts::PI * bandwidth_hz;
+    let len = ((8.0 / decay) * fs).ceil() as usize;
+    let mut t = rng.exponential(rate_hz);
+    loop {
+        let start = (t * fs).ceil() as usize;
+        if start >= out.len() {
+            return Ok(());
+        }
+        let a = f64::from(amplitude) * (0.5 + rng.uniform());
+        for (j, v) in out[start..].iter_mut().take(len).enumerate() {
+            let tau = (start + j) as f64 / fs - t;
+            *v +=
+                (a * (-decay * tau).exp() * (2.0 * std::f64::consts::PI * f_hz * tau).sin()) as f32;
+        }
+        t += rng.exponential(rate_hz);
+    }
 }
 
 #[cfg(test)]

@@ -3,7 +3,7 @@
 //! terms), not from the twin's model, and the loop is handed only the signal, the
 //! sampling rate, the nominal speed and the bearing: it never sees these settings.
 
-use crate::sim::{simulate, ExtraTerms, SensorSpec, SimError, SimulationSpec, G};
+use crate::sim::{simulate, ExtraTerms, OutputBursts, SensorSpec, SimError, SimulationSpec, G};
 use pumptwin_core::bearing::DefectLocation;
 use pumptwin_core::excitation::ImpactTrain;
 use pumptwin_core::simulator::SensorTransfer;
@@ -44,11 +44,15 @@ pub enum Injected {
     /// Band noise at the sensor, 1.8–2.4 kHz (a pump's flow noise or cavitation, a
     /// neighbour's broadband): it excites nothing and carries no impact rhythm.
     NoiseBand,
+    /// Random bursts at the sensor: ring-downs at Poisson times (80 per second), each
+    /// ringing a casing mode at 4.0 kHz, 500 Hz wide — a pump's cavitation (vapour
+    /// bubbles collapsing), debris in the flow; no rate of the machine.
+    Cavitation,
 }
 
 impl Injected {
     /// Every injectable effect except the control.
-    pub const EFFECTS: [Injected; 13] = [
+    pub const EFFECTS: [Injected; 14] = [
         Injected::ShaftHarmonics,
         Injected::LoadZoneModulation,
         Injected::Slip,
@@ -62,6 +66,7 @@ impl Injected {
         Injected::VanePass,
         Injected::Looseness,
         Injected::NoiseBand,
+        Injected::Cavitation,
     ];
 
     /// The effect name the loop should report.
@@ -80,6 +85,7 @@ impl Injected {
             Injected::VanePass => Some("shaft_order_tones"),
             Injected::Looseness => Some("half_orders"),
             Injected::NoiseBand => Some("unexplained_band"),
+            Injected::Cavitation => Some("random_bursts"),
         }
     }
 }
@@ -160,6 +166,14 @@ pub fn generate(
         }
         Injected::UnknownPeriodic => spec.extra.output_lines = vec![(437.3, 0.05 * s as f32)],
         Injected::NoiseBand => spec.extra.output_band = Some((1800.0, 2400.0, 0.1 * s as f32)),
+        Injected::Cavitation => {
+            spec.extra.output_bursts = Some(OutputBursts {
+                rate_hz: 80.0,
+                f_hz: 4000.0,
+                bandwidth_hz: 500.0,
+                amplitude: 0.6 * s as f32,
+            });
+        }
         Injected::Looseness => {
             spec.extra.shaft_harmonics = [(0.5, 300.0), (1.5, 250.0), (2.5, 200.0), (3.5, 150.0)]
                 .map(|(h, a)| (h, a * s))

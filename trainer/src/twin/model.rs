@@ -130,6 +130,21 @@ pub enum Effect {
         /// −3 dB bandwidth, Hz.
         bandwidth_hz: f64,
     },
+    /// Ring-downs at random times added at the sensor: impacts at no rate of the
+    /// machine — the collapse of vapour bubbles in a cavitating pump, debris carried
+    /// through it, a loose part struck at random — each ringing a casing mode of its
+    /// own, not the bearing's structure. A Poisson process of bursts
+    /// `a_i·e^{−π·B·t}·sin 2π f t` (mean rate λ, amplitudes log-normal about `a`, σ = 0.5).
+    /// Its spectrum is a band like [`Effect::UnexplainedBand`]'s (shot noise tends to
+    /// Gaussian noise as λ grows); what sets it apart is impulsiveness: at a rate of
+    /// tens per second the band is carried by isolated bursts, and the fit reads λ from
+    /// the record's kurtosis and envelope as much as from its spectrum.
+    RandomBursts {
+        /// Initial ring frequency, Hz.
+        f_hz: f64,
+        /// Initial −3 dB bandwidth, Hz.
+        bandwidth_hz: f64,
+    },
 }
 
 impl Effect {
@@ -148,6 +163,7 @@ impl Effect {
             Effect::UnexplainedPeriodic { .. } => "unexplained_periodic",
             Effect::UnexplainedBand { .. } => "unexplained_band",
             Effect::SecondImpactTrain { .. } => "second_impact_train",
+            Effect::RandomBursts { .. } => "random_bursts",
         }
     }
 
@@ -175,6 +191,7 @@ impl Effect {
                 | Effect::LineInterference { .. }
                 | Effect::UnexplainedPeriodic { .. }
                 | Effect::UnexplainedBand { .. }
+                | Effect::RandomBursts { .. }
         )
     }
 
@@ -270,6 +287,22 @@ impl Effect {
                 ("ln_band_centre_hz".into(), f_hz.ln()),
                 ("ln_band_width_hz".into(), bandwidth_hz.max(1.0).ln()),
             ],
+            // Bursts carrying the band's excess power at a start of 50 per second: the
+            // power of shot noise of rate λ whose bursts ring `a·e^{−πBt}·sin 2πft` is
+            // λ·E[a²]/(4πB); E[a²] = a²·e^{σ²} with log-normal amplitudes (σ = 0.5).
+            Effect::RandomBursts { f_hz, bandwidth_hz } => {
+                let rate = BURST_START_RATE_HZ;
+                let power = excess_power(*f_hz, 0.5 * bandwidth_hz).unwrap_or(noise * noise);
+                let amp = (power * 4.0 * std::f64::consts::PI * bandwidth_hz
+                    / (rate * (BURST_LOG_SIGMA * BURST_LOG_SIGMA).exp()))
+                .sqrt();
+                vec![
+                    ("ln_burst_amp".into(), amp.max(1e-9).ln()),
+                    ("ln_burst_rate_hz".into(), rate.ln()),
+                    ("ln_burst_ring_hz".into(), f_hz.ln()),
+                    ("ln_burst_width_hz".into(), bandwidth_hz.max(10.0).ln()),
+                ]
+            }
             // Half the modelled defect's impact level, or (healthy model) twenty times
             // the background force; the refit's second start tries a twentieth of it.
             Effect::SecondImpactTrain { .. } => {
@@ -553,6 +586,14 @@ impl TwinModel {
         f
     }
 
+    /// The mean overlap `λ·τ` of the last [`Effect::RandomBursts`] (rate × decay time
+    /// `1/(πB)`), or `None` without bursts.
+    pub fn burst_overlap(&self) -> Option<f64> {
+        let (_, p) = self.effects_of("random_bursts").pop()?;
+        let (rate, width) = (p.get(1)?.value.exp(), p.get(3)?.value.exp());
+        Some(rate / (std::f64::consts::PI * width))
+    }
+
     fn effect_params(&self, kind: &str) -> Option<(&Effect, &[Param])> {
         self.effects_of(kind).into_iter().next()
     }
@@ -632,6 +673,15 @@ impl TwinModel {
         for (_, p) in self.effects_of("unexplained_band") {
             let [level, centre, width] = [0, 1, 2].map(|i| p[i].value.exp());
             add_band_noise(&mut y, fs, centre, width, level, &mut rng)?;
+        }
+        for (i, (_, p)) in self.effects_of("random_bursts").into_iter().enumerate() {
+            let [amp, rate, ring, width] = [0, 1, 2, 3].map(|i| p[i].value.exp());
+            add_random_bursts(
+                &mut y,
+                fs,
+                [amp, rate, ring, width],
+                seed ^ (0xB0_5757 + i as u64),
+            );
         }
         let noise = self.get("ln_meas_noise").map_or(0.0, f64::exp);
         let unit_y = unit_normals(y.len(), seed ^ 0x0_15E);
@@ -980,6 +1030,48 @@ fn add_band_noise(
     Ok(())
 }
 
+/// Mean burst rate a [`Effect::RandomBursts`] fit starts from, per second.
+pub const BURST_START_RATE_HZ: f64 = 50.0;
+/// Spread (σ of the logarithm) of the burst amplitudes about their level.
+pub const BURST_LOG_SIGMA: f64 = 0.5;
+/// Most bursts per second the model renders (a rate beyond it is band noise, which
+/// [`Effect::UnexplainedBand`] models).
+const BURST_MAX_RATE_HZ: f64 = 2000.0;
+
+/// Add [`Effect::RandomBursts`]' ring-downs to `y`: `[level, rate λ, ring f, width B]`.
+/// The bursts come from one fixed sequence of unit exponential gaps and unit normal
+/// amplitudes per `seed` (common random numbers): burst `i` falls at `Σ_{j≤i} E_j / λ`,
+/// so a change of λ moves every burst continuously and the fit's Jacobian sees a smooth
+/// change, not bursts appearing and vanishing at random.
+fn add_random_bursts(y: &mut [f32], fs: f64, [level, rate, ring, width]: [f64; 4], seed: u64) {
+    let rate = rate.clamp(1e-3, BURST_MAX_RATE_HZ);
+    let ring = ring.clamp(1.0, 0.49 * fs);
+    let decay = std::f64::consts::PI * width.max(1.0);
+    let len = ((8.0 / decay) * fs).ceil() as usize;
+    let duration = y.len() as f64 / fs;
+    // Enough draws for twice the expected count, in powers of two so the cached
+    // sequence (whose prefix is the same for every length) is reused across rates.
+    let n_bursts = ((2.0 * rate * duration + 10.0).ceil() as usize).next_power_of_two();
+    let draws = unit_normals(3 * n_bursts, seed);
+    let norm = (-0.5 * BURST_LOG_SIGMA * BURST_LOG_SIGMA).exp();
+    let mut t = 0.0;
+    for z in draws.chunks_exact(3) {
+        // A unit exponential gap from a normal pair, E = (z1² + z2²)/2; the amplitude
+        // from the third.
+        t += 0.5 * (z[0] * z[0] + z[1] * z[1]) / rate;
+        let start = (t * fs).ceil() as usize;
+        if start >= y.len() {
+            break;
+        }
+        let a = level * norm * (BURST_LOG_SIGMA * z[2]).exp();
+        for (j, v) in y[start..].iter_mut().take(len).enumerate() {
+            let tau = (start + j) as f64 / fs - t;
+            *v +=
+                (a * (-decay * tau).exp() * (2.0 * std::f64::consts::PI * ring * tau).sin()) as f32;
+        }
+    }
+}
+
 /// Which defect the frequencies point at, by name (`outer_race` …) for reports.
 pub fn fault_name(fault: Option<DefectLocation>) -> &'static str {
     match fault {
@@ -995,6 +1087,35 @@ mod tests {
     use super::*;
     use crate::twin::signature::{Signature, SignatureConfig};
     use pumptwin_core::bearing::BearingGeometry;
+
+    /// The bursts' mean square is the shot-noise power λ·E[a²]/(4πB) the effect's start
+    /// values are set from (E[a²] = a²·e^{σ²}), and a higher rate moves the same bursts
+    /// rather than drawing new ones: the first burst of the faster train is the first
+    /// of the slower one, earlier by the ratio of the rates.
+    #[test]
+    fn random_bursts_carry_the_shot_noise_power_and_scale_with_the_rate() {
+        let fs = 12_000.0;
+        let (amp, rate, ring, width) = (0.5, 40.0, 3000.0, 400.0);
+        let mut y = vec![0.0f32; 60 * 12_000];
+        add_random_bursts(&mut y, fs, [amp, rate, ring, width], 9);
+        let ms = y.iter().map(|v| f64::from(*v).powi(2)).sum::<f64>() / y.len() as f64;
+        let want = rate * amp * amp * (BURST_LOG_SIGMA * BURST_LOG_SIGMA).exp()
+            / (4.0 * std::f64::consts::PI * width);
+        assert!(
+            (ms / want - 1.0).abs() < 0.15,
+            "mean square {ms}, shot noise {want}"
+        );
+        let first = |rate: f64| {
+            let mut y = vec![0.0f32; 20 * 12_000];
+            add_random_bursts(&mut y, fs, [amp, rate, ring, width], 9);
+            y.iter().position(|v| *v != 0.0).expect("a burst")
+        };
+        let (slow, fast) = (first(0.5), first(1.0));
+        assert!(
+            (slow as f64 / fast as f64 - 2.0).abs() < 0.01,
+            "first burst at {slow} and {fast} samples"
+        );
+    }
 
     /// Two added structural modes (the second by modal superposition) each raise the
     /// rendered PSD at their frequency; the model without them has no such peaks.

@@ -622,6 +622,32 @@ pub fn band_carries_defect(x: &[f32], fs: f32, lo: f32, hi: f32, rate_hz: f32, n
     }
 }
 
+/// Kurtosis of `x` band-passed to `[lo, hi]` Hz (FFT-domain, over the whole record
+/// zero-padded to a power of two), or `None` for an empty band. A Gaussian band reads
+/// 3; a band carried by isolated bursts reads far more.
+pub fn band_kurtosis(x: &[f32], fs: f32, lo: f32, hi: f32) -> Option<f32> {
+    let n = x.len().next_power_of_two();
+    let mut z: Vec<Complex32> = x
+        .iter()
+        .map(|&v| Complex32::new(v, 0.0))
+        .chain(std::iter::repeat(Complex32::ZERO))
+        .take(n)
+        .collect();
+    fft_in_place(&mut z, Direction::Forward).ok()?;
+    let df = fs / n as f32;
+    for (k, v) in z.iter_mut().enumerate() {
+        let f = k.min(n - k) as f32 * df;
+        if f < lo || f > hi {
+            *v = Complex32::ZERO;
+        }
+    }
+    fft_in_place(&mut z, Direction::Inverse).ok()?;
+    let y = &z[..x.len()];
+    let m2 = y.iter().map(|v| f64::from(v.re).powi(2)).sum::<f64>() / y.len() as f64;
+    let m4 = y.iter().map(|v| f64::from(v.re).powi(4)).sum::<f64>() / y.len() as f64;
+    (m2 > 0.0).then(|| (m4 / (m2 * m2)) as f32)
+}
+
 /// Frequency of the envelope line near `f` in `x` (interpolated peak), or `None`.
 fn envelope_line(x: &[f32], fs: f32, band: EnvelopeBand, f: f32, n: usize) -> Option<f32> {
     let (spec, df) = band_envelope_spectrum(x, fs, band.lo_hz, band.hi_hz, n)?;
@@ -746,6 +772,11 @@ pub const MAX_UNEXPLAINED_TONES: usize = 3;
 pub const BAND_DILUTION_DB: f32 = 6.0;
 /// Most unexplained bands the loop adds.
 pub const MAX_UNEXPLAINED_BANDS: usize = 2;
+
+/// Least dilution of the defect rate in a band's envelope (dB against the model's,
+/// [`band_carries_defect`]) for the band to be offered as [`Effect::RandomBursts`]:
+/// a mode the impacts excite strengthens the rhythm (generated modes −6 to −1 dB).
+pub const BURST_DILUTION_DB: f32 = 1.0;
 
 fn has(model: &TwinModel, name: &str) -> bool {
     model.effects.iter().any(|(e, _)| e.name() == name)
@@ -1334,8 +1365,11 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
         model
             .effects_of("unexplained_band")
             .into_iter()
+            .chain(model.effects_of("random_bursts"))
             .filter_map(|(e, _)| match e {
-                Effect::UnexplainedBand { f_hz, .. } => Some(*f_hz),
+                Effect::UnexplainedBand { f_hz, .. } | Effect::RandomBursts { f_hz, .. } => {
+                    Some(*f_hz)
+                }
                 _ => None,
             }),
     );
@@ -1399,6 +1433,19 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
                 serde_json::json!(d),
             );
         }
+        // Is the band carried by isolated bursts? Its kurtosis against the model's in
+        // the same band (and a Gaussian band's 3).
+        let (l, h) = (
+            (b.f_hz - 0.5 * b.width_hz) as f32,
+            (b.f_hz + 0.5 * b.width_hz) as f32,
+        );
+        let kurt = band_kurtosis(ctx.x, fs, l, h).zip(band_kurtosis(ctx.sim, fs, l, h));
+        if let Some((km, ks)) = kurt {
+            ev.figures
+                .insert("band_kurtosis_measured".into(), serde_json::json!(km));
+            ev.figures
+                .insert("band_kurtosis_model".into(), serde_json::json!(ks));
+        }
         let strength = b.excess_db + 3.0 * (b.width_hz / 100.0).min(5.0) as f32;
         // The readings offered: a structural mode, a band added at the sensor, or (a
         // narrow band, whose envelope cannot tell) both, each with what says so.
@@ -1453,6 +1500,30 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
                 strength: strength - if narrow { 0.5 } else { 2.0 },
                 check: Check::Lines,
             });
+        }
+        // The third reading: bursts at random times, ringing a casing mode of their
+        // own. Offered, as a rival to the readings above, for a band whose envelope
+        // carries less of the defect's rhythm than the model's does in the same band —
+        // power from a source that keeps no rhythm of the machine — and wide enough for
+        // its envelope to say so; the refit decides between smooth noise and bursts.
+        // And the band must be at least as impulsive as Gaussian noise: shot noise
+        // reads above 3 whatever its rate, so a band below it (a steady oscillation,
+        // tones, carry it) is not carried by bursts.
+        let impulsive = kurt.is_some_and(|(km, _)| km > 3.0);
+        if let Some(d) = dilution.filter(|&d| !narrow && impulsive && d >= BURST_DILUTION_DB) {
+            if model.effects_of("random_bursts").is_empty() {
+                out.push(Candidate {
+                    effect: Effect::RandomBursts {
+                        f_hz: b.centre_hz.unwrap_or(b.f_hz),
+                        bandwidth_hz: b.width_hz.max(2.0 * df),
+                    },
+                    evidence: with(&format!(
+                        "; it dilutes the defect rate in the band's envelope by {d:.1} dB against the model's: power from a source with no rhythm of the machine, which bursts at random times (cavitation, debris, a part struck at random) would give"
+                    )),
+                    strength: strength - 2.5,
+                    check: Check::Lines,
+                });
+            }
         }
     }
 
@@ -1687,6 +1758,31 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A Gaussian band reads a kurtosis of 3, a band carried by isolated ring-downs far
+    /// more, and a steady tone 1.5.
+    #[test]
+    fn band_kurtosis_tells_noise_bursts_and_tones_apart() {
+        let fs = 12_000.0;
+        let mut rng = pumptwin_core::rng::Xoshiro128pp::seed_from_u64(3);
+        let noise: Vec<f32> = (0..72_000).map(|_| rng.normal() as f32).collect();
+        let k = band_kurtosis(&noise, fs, 2000.0, 2600.0).expect("kurtosis");
+        assert!((k - 3.0).abs() < 0.2, "Gaussian band: {k}");
+        let mut bursts = vec![0.0f32; 72_000];
+        for start in (0..72_000 - 600).step_by(1500) {
+            for (j, v) in bursts[start..start + 600].iter_mut().enumerate() {
+                let t = j as f32 / fs;
+                *v += (-t * 1500.0).exp() * (2.0 * std::f32::consts::PI * 2300.0 * t).sin();
+            }
+        }
+        let k = band_kurtosis(&bursts, fs, 2000.0, 2600.0).expect("kurtosis");
+        assert!(k > 6.0, "bursts: {k}");
+        let tone: Vec<f32> = (0..72_000)
+            .map(|j| (2.0 * std::f32::consts::PI * 2300.0 * j as f32 / fs).sin())
+            .collect();
+        let k = band_kurtosis(&tone, fs, 2000.0, 2600.0).expect("kurtosis");
+        assert!((k - 1.5).abs() < 0.1, "tone: {k}");
+    }
 
     fn line(f_hz: f64) -> Component {
         Component {
