@@ -963,7 +963,7 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
                         (rival.clone(), rt, best.0.effect.name())
                     };
                     let reason = match &rv.undone {
-                        Some(why) if !rv.passes => why.clone(),
+                        Some(why) => why.clone(),
                         _ => format!(
                             "the same lines are explained by {winner} as well or better (cost {:.3} against {:.3})",
                             best.1.cost, lost.cost

@@ -675,7 +675,7 @@ impl TwinModel {
             add_band_noise(&mut y, fs, centre, width, level, &mut rng)?;
         }
         for (i, (_, p)) in self.effects_of("random_bursts").into_iter().enumerate() {
-            let [amp, rate, ring, width] = [0, 1, 2, 3].map(|i| p[i].value.exp());
+            let [amp, rate, ring, width] = [0, 1, 2, 3].map(|k| p[k].value.exp());
             add_random_bursts(
                 &mut y,
                 fs,

@@ -1393,6 +1393,11 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
         let rate = rate.filter(|_| !narrow);
         let (lo, hi) = ((b.f_hz - b.width_hz) as f32, (b.f_hz + b.width_hz) as f32);
         let carried = rate.map(|r| band_carries_defect(ctx.x, fs, lo, hi, r, ctx.cfg.env_n));
+        // The band itself (its run), where its rhythm and its kurtosis are read.
+        let (l, h) = (
+            (b.f_hz - 0.5 * b.width_hz) as f32,
+            (b.f_hz + 0.5 * b.width_hz) as f32,
+        );
         // Does the band's excess carry the impacts' rhythm? A mode the impacts excite
         // adds power that is modulated like the rest of the response; noise added at
         // the sensor (cavitation, flow, a neighbour's broadband) dilutes it: inside the
@@ -1401,10 +1406,6 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
         // generated modes by −6 to −1 (they strengthen it), the bands of the twelve
         // CWRU loops by 5.4 dB at most.
         let dilution = rate.map(|r| {
-            let (l, h) = (
-                (b.f_hz - 0.5 * b.width_hz) as f32,
-                (b.f_hz + 0.5 * b.width_hz) as f32,
-            );
             band_carries_defect(ctx.sim, fs, l, h, r, ctx.cfg.env_n)
                 - band_carries_defect(ctx.x, fs, l, h, r, ctx.cfg.env_n)
         });
@@ -1435,10 +1436,6 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
         }
         // Is the band carried by isolated bursts? Its kurtosis against the model's in
         // the same band (and a Gaussian band's 3).
-        let (l, h) = (
-            (b.f_hz - 0.5 * b.width_hz) as f32,
-            (b.f_hz + 0.5 * b.width_hz) as f32,
-        );
         let kurt = band_kurtosis(ctx.x, fs, l, h).zip(band_kurtosis(ctx.sim, fs, l, h));
         if let Some((km, ks)) = kurt {
             ev.figures
@@ -1510,20 +1507,21 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
         // reads above 3 whatever its rate, so a band below it (a steady oscillation,
         // tones, carry it) is not carried by bursts.
         let impulsive = kurt.is_some_and(|(km, _)| km > 3.0);
-        if let Some(d) = dilution.filter(|&d| !narrow && impulsive && d >= BURST_DILUTION_DB) {
-            if model.effects_of("random_bursts").is_empty() {
-                out.push(Candidate {
-                    effect: Effect::RandomBursts {
-                        f_hz: b.centre_hz.unwrap_or(b.f_hz),
-                        bandwidth_hz: b.width_hz.max(2.0 * df),
-                    },
-                    evidence: with(&format!(
-                        "; it dilutes the defect rate in the band's envelope by {d:.1} dB against the model's: power from a source with no rhythm of the machine, which bursts at random times (cavitation, debris, a part struck at random) would give"
-                    )),
-                    strength: strength - 2.5,
-                    check: Check::Lines,
-                });
-            }
+        let no_bursts_yet = model.effects_of("random_bursts").is_empty();
+        if let Some(d) =
+            dilution.filter(|&d| no_bursts_yet && !narrow && impulsive && d >= BURST_DILUTION_DB)
+        {
+            out.push(Candidate {
+                effect: Effect::RandomBursts {
+                    f_hz: b.centre_hz.unwrap_or(b.f_hz),
+                    bandwidth_hz: b.width_hz.max(2.0 * df),
+                },
+                evidence: with(&format!(
+                    "; it dilutes the defect rate in the band's envelope by {d:.1} dB against the model's: power from a source with no rhythm of the machine, which bursts at random times (cavitation, debris, a part struck at random) would give"
+                )),
+                strength: strength - 2.5,
+                check: Check::Lines,
+            });
         }
     }
 
