@@ -140,28 +140,53 @@ effect_tests! {
 /// not as a structural mode (a band whose envelope carries the defect's rhythm less
 /// than the model's does), rung where they ring (within 3 %), as wide (within 30 %) and
 /// with their power: the spectrum fixes λ·E[a²] (within 30 %), which the fit cannot
-/// split between rate and level as sharply (it is not asserted).
+/// split between rate and level as sharply (it is not asserted). Seeds 1 and 2 are
+/// records whose band a structural mode fits no better than the model without it (the
+/// shown errors rise): the bursts, tried only as a rival of a reading that passes, got
+/// no turn there and nothing (seed 1) or a tone alone (seed 2) was found, until they
+/// were given the last turn of a round whose other readings all failed.
 #[test]
 fn cavitation_is_read_as_random_bursts_with_their_ring_and_power() {
-    let report = loop_on(Injected::Cavitation, Strength::Realistic, 21);
-    let step = first_step(&report, "cavitation");
-    assert_eq!(step.effect, "random_bursts", "effects {:?}", report.effects);
+    for seed in [21, 1, 2] {
+        let report = loop_on(Injected::Cavitation, Strength::Realistic, seed);
+        let step = report
+            .steps
+            .iter()
+            .find(|s| s.effect == "random_bursts")
+            .unwrap_or_else(|| {
+                panic!(
+                    "seed {seed}: no bursts, effects {:?} ({})",
+                    report.effects, report.stop_reason
+                )
+            });
+        check_bursts(step, seed);
+    }
+}
+
+/// The cavitation's bursts as fitted in `step` against the generator's.
+fn check_bursts(step: &LoopStep, seed: u64) {
     let get = |k: &str| step.params[k].as_f64().expect(k);
     let ring = get("burst_ring_hz");
-    assert!((ring / 4000.0 - 1.0).abs() < 0.03, "ring {ring} Hz");
+    assert!(
+        (ring / 4000.0 - 1.0).abs() < 0.03,
+        "seed {seed}: ring {ring} Hz"
+    );
     let width = get("burst_width_hz");
-    assert!((width / 500.0 - 1.0).abs() < 0.3, "width {width} Hz");
+    assert!(
+        (width / 500.0 - 1.0).abs() < 0.3,
+        "seed {seed}: width {width} Hz"
+    );
     // E[a²] of the model's log-normal amplitudes (σ = 0.5, mean a) is a²·e^{σ²}; of the
     // generator's, 0.6²·(1 + 1/12).
     let power = get("burst_rate_hz") * get("burst_amp").powi(2) * 0.25f64.exp();
     let truth = 80.0 * 0.36 * (1.0 + 1.0 / 12.0);
     assert!(
         (power / truth - 1.0).abs() < 0.3,
-        "λ·E[a²] {power}, truth {truth}"
+        "seed {seed}: λ·E[a²] {power}, truth {truth}"
     );
     assert!(
         step.error_after.psd_log_rmse_db < step.error_before.psd_log_rmse_db - 0.5,
-        "PSD {} -> {} dB",
+        "seed {seed}: PSD {} -> {} dB",
         step.error_before.psd_log_rmse_db,
         step.error_after.psd_log_rmse_db
     );

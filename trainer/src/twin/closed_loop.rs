@@ -924,11 +924,18 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
         // rhythm washed out by something else (a drifting speed smears the comb's high
         // teeth, which dilutes the defect rate in a high band's envelope) must not be
         // read as bursts before that something is tried.
+        // But once every other reading of the round has been tried and failed (a band
+        // that a mode fits no better than the model without it: the bursts ring a
+        // casing mode of their own and leave the defect's rhythm diluted there, which a
+        // mode cannot give), the bursts get the last turn: nothing else is left that
+        // they could be taken for.
         let rival_only = |c: &Candidate| matches!(c.effect, Effect::RandomBursts { .. });
+        let last_turn = candidates.iter().all(rival_only);
+        let primary = |c: &Candidate| last_turn || !rival_only(c);
         for (i, cand) in candidates
             .iter()
             .enumerate()
-            .filter(|(_, c)| !rival_only(c))
+            .filter(|(_, c)| primary(c))
             .take(3)
         {
             let Some(fitted) = try_one(cand, &mut trials) else {
@@ -1004,7 +1011,7 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
         }
         let untried: Vec<&str> = candidates
             .iter()
-            .filter(|c| !rival_only(c) && !trials.tried.contains(&tried_key(&c.effect)))
+            .filter(|c| !trials.tried.contains(&tried_key(&c.effect)))
             .map(|c| c.effect.name())
             .collect();
         if trials.budget_spent && !accepted {
