@@ -730,6 +730,9 @@ fn run_twin_loop(args: &TwinLoopArgs) -> Result<()> {
         fs_hz: rec.fs_hz,
         rpm,
         bearing,
+        held_runs: raw
+            .channel(&channel.name)
+            .map(|c| crate::twin::closed_loop::held_runs(&c.samples)),
     };
     let (mut report, artifacts) = run(&input, &LoopConfig::default())?;
     if let Some(c) = raw.channel(&channel.name) {
@@ -815,6 +818,9 @@ pub fn run_twin_cwru(args: &TwinCwruArgs) -> Result<()> {
             fs_hz: rec.fs_hz,
             rpm,
             bearing: BearingGeometry::CWRU_6205_DE,
+            held_runs: raw
+                .channel("DE")
+                .map(|c| crate::twin::closed_loop::held_runs(&c.samples)),
         };
         let (mut report, artifacts) = run(&input, &LoopConfig::default())?;
         if let Some(c) = raw.channel("DE") {

@@ -291,6 +291,7 @@ pub fn fit_theta(signal: &[f32], fs_hz: f32, rpm: f32) -> anyhow::Result<Theta> 
         fs_hz,
         rpm,
         bearing: BearingGeometry::CWRU_6205_DE,
+        held_runs: None,
     };
     let (report, _) = run_loop(&input, &theta_loop_config())?;
     let p = &report.params_initial;

@@ -25,6 +25,33 @@ pub struct LoopInput {
     pub rpm: f32,
     /// Bearing geometry.
     pub bearing: BearingGeometry,
+    /// Dropouts of the acquisition ([`held_runs`]) counted on the record as read, for a
+    /// caller that band-limits it before the loop (the filter smears a dropout shorter
+    /// than itself); `None`: counted on `signal`.
+    pub held_runs: Option<usize>,
+}
+
+/// Shortest run of one value, repeated sample for sample, that counts as a dropout: a
+/// vibration sensor's signal with its noise never holds one value that long (no CWRU
+/// channel holds one for even four samples), an acquisition that lost its input
+/// returns zeros or its last code.
+pub const HELD_RUN_MIN: usize = 8;
+
+/// Runs of at least [`HELD_RUN_MIN`] equal consecutive samples in `x`: dropouts.
+pub fn held_runs(x: &[f32]) -> usize {
+    let mut runs = 0;
+    let mut len = 1;
+    for w in x.windows(2) {
+        if w[1] == w[0] {
+            len += 1;
+            if len == HELD_RUN_MIN {
+                runs += 1;
+            }
+        } else {
+            len = 1;
+        }
+    }
+    runs
 }
 
 /// Largest RMS, in g, taken as a bearing housing's acceleration. The model works in g
@@ -279,6 +306,9 @@ pub struct LoopReport {
     pub rail_hits: Option<usize>,
     /// [`rail_hits`](Self::rail_hits) of at least [`CLIPPED_RAIL_HITS`].
     pub clipped: bool,
+    /// Dropouts: runs of one value held for [`HELD_RUN_MIN`] samples or more
+    /// ([`held_runs`]).
+    pub dropouts: usize,
     /// Candidates tried and rejected.
     pub rejected: Vec<RejectedCandidate>,
     /// Significant residual components left at the end (defect-comb lines excluded).
@@ -557,6 +587,9 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
         return Err(LoopError::Input("signal contains NaN or infinity".into()));
     }
     let n_max = (cfg.max_record_seconds * f64::from(input.fs_hz)) as usize;
+    let dropouts = input
+        .held_runs
+        .unwrap_or_else(|| held_runs(&input.signal[..input.signal.len().min(n_max)]));
     let x = &ac_couple(&input.signal[..input.signal.len().min(n_max)], input.fs_hz);
     let too_short = |e: SignatureError| LoopError::Input(format!("the record is too short: {e}"));
     let op = OperatingPoint {
@@ -645,13 +678,19 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
             meas_psd_db: target_res.psd_db.clone(),
             sim_psd_db: to_db(&sim_sig.psd, &target_res.meas.psd),
         };
+        // A record with dropouts has the time statistics of its holes (a step into and
+        // out of each, impulsive in any band): random impacts are not read off them.
         let candidates: Vec<_> = trace(&analysis, &ctx)
             .into_iter()
             .filter(|c| !trials.tried.contains(&tried_key(&c.effect)))
+            .filter(|c| dropouts == 0 || !matches!(c.check, Check::Kurtosis { .. }))
             .collect();
         let significant = unexplained(&analysis, &current.model, &sig_res, span_s).len();
         last_analysis = analysis;
-        if significant == 0 && candidates.is_empty() {
+        // Random bursts are read only once nothing else is left (below): where they are
+        // all that is, the residual is first asked whether it is noise-like.
+        let mut unexplained_misfit = None;
+        if significant == 0 && candidates.iter().all(rival_only) {
             // No spectral component is left; the PSD error must be within what the
             // spectra's own scatter explains and the time statistics must agree too, or
             // something no line or band shows (noise between the comb's teeth, dropouts,
@@ -687,13 +726,17 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
                 residual_noise_like = true;
                 stop_reason =
                     "the residual is noise-like: no component stands above the floor".into();
-            } else {
-                stop_reason = format!(
-                    "no spectral component stands above the floor, but {}",
-                    why.join("; and ")
-                );
+                break;
             }
-            break;
+            let reason = format!(
+                "no spectral component stands above the floor, but {}",
+                why.join("; and ")
+            );
+            if candidates.is_empty() {
+                stop_reason = reason;
+                break;
+            }
+            unexplained_misfit = Some(reason);
         }
         if steps.len() >= cfg.max_steps {
             break;
@@ -929,7 +972,6 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
         // casing mode of their own and leave the defect's rhythm diluted there, which a
         // mode cannot give), the bursts get the last turn: nothing else is left that
         // they could be taken for.
-        let rival_only = |c: &Candidate| matches!(c.effect, Effect::RandomBursts { .. });
         let last_turn = candidates.iter().all(rival_only);
         let primary = |c: &Candidate| last_turn || !rival_only(c);
         for (i, cand) in candidates
@@ -1030,9 +1072,21 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
             if !untried.is_empty() {
                 continue;
             }
-            stop_reason = "no candidate effect passed: each lowered the error too little, or raised the PSD and envelope errors on balance (see `rejected`)".into();
+            stop_reason = match unexplained_misfit {
+                Some(reason) => format!("{reason}; random bursts were tried for it and rejected (see `rejected`)"),
+                None => "no candidate effect passed: each lowered the error too little, or raised the PSD and envelope errors on balance (see `rejected`)".into(),
+            };
             break;
         }
+    }
+    if dropouts > 0 {
+        // Like clipping, an effect of the measurement no bearing model has.
+        residual_noise_like = false;
+        stop_reason.push_str(&format!(
+            "; the record holds one value for {HELD_RUN_MIN} samples or more {dropouts} \
+             time(s): dropouts of the acquisition, whose steps are impulsive in every band \
+             (no random impacts are read off its time statistics)"
+        ));
     }
     let (_, final_sig) = residual_of(&current.model)?;
     let report = LoopReport {
@@ -1051,6 +1105,7 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
         psd_scatter_db: psd_scatter,
         rail_hits: None,
         clipped: false,
+        dropouts,
         seconds: t0.elapsed().as_secs_f64(),
         evaluations: trials.evaluations,
     };
@@ -1071,8 +1126,14 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
 /// Gaussian band over the defect's structure at 0.73.
 pub const MAX_BURST_OVERLAP: f64 = 0.5;
 
+/// Random bursts are only ever a rival, or the last turn of a round (see the loop).
+fn rival_only(c: &Candidate) -> bool {
+    matches!(c.effect, Effect::RandomBursts { .. })
+}
+
 /// Burst rates, per second, a [`Effect::RandomBursts`] fit may start from.
-const BURST_START_RATES_HZ: [f64; 7] = [10.0, 20.0, 40.0, 80.0, 160.0, 320.0, 640.0];
+const BURST_START_RATES_HZ: [f64; 10] =
+    [1.25, 2.5, 5.0, 10.0, 20.0, 40.0, 80.0, 160.0, 320.0, 640.0];
 
 /// Start `model`'s last bursts at the rate of [`BURST_START_RATES_HZ`] with the lowest
 /// cost, their power held (the level scaled by `1/√λ`): the spectrum fixes only
@@ -1243,6 +1304,7 @@ mod tests {
             fs_hz: 12_000.0,
             rpm: 1797.0,
             bearing: BearingGeometry::CWRU_6205_DE,
+            held_runs: None,
         };
         let cfg = LoopConfig {
             max_record_seconds: 10.0,
@@ -1279,6 +1341,23 @@ mod tests {
         );
     }
 
+    /// A run of one value counts once it reaches [`HELD_RUN_MIN`] samples, whatever the
+    /// value (zeros, a held last code); shorter repeats and a noisy signal count none.
+    #[test]
+    fn held_runs_count_dropouts_not_repeats() {
+        let noisy: Vec<f32> = (0..1000)
+            .map(|i| ((i * 7919) % 113) as f32 * 0.01)
+            .collect();
+        assert_eq!(held_runs(&noisy), 0);
+        let mut x = noisy.clone();
+        x[100..100 + HELD_RUN_MIN].fill(0.0);
+        x[300..300 + HELD_RUN_MIN - 1].fill(0.25);
+        let held = x[499];
+        x[500..560].fill(held);
+        assert_eq!(held_runs(&x), 2);
+        assert_eq!(held_runs(&[]), 0);
+    }
+
     #[test]
     fn bad_input_is_an_error() {
         let input = LoopInput {
@@ -1286,6 +1365,7 @@ mod tests {
             fs_hz: 12_000.0,
             rpm: 1797.0,
             bearing: BearingGeometry::CWRU_6205_DE,
+            held_runs: None,
         };
         assert!(matches!(
             run(&input, &LoopConfig::default()),
