@@ -1193,6 +1193,10 @@ fn tried_key(e: &Effect) -> String {
         Effect::UnexplainedPeriodic { f_hz, .. } => format!("unexplained_periodic@{f_hz:.0}"),
         Effect::UnexplainedBand { f_hz, .. } => format!("unexplained_band@{f_hz:.0}"),
         Effect::RandomBursts { f_hz, .. } => format!("random_bursts@{f_hz:.0}"),
+        // To half a hertz: a rate read again each round moves by hundredths.
+        Effect::LoadZoneModulation { mod_hz } => {
+            format!("load_zone_modulation@{:.0}", 2.0 * mod_hz)
+        }
         other => other.name().to_string(),
     }
 }

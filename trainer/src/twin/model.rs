@@ -814,6 +814,20 @@ impl TwinModel {
         let mut force_r = vec![0.0f64; 2 * n_sim + 1];
         let mut force_t = vec![0.0f64; 2 * n_sim + 1];
         ex.render(grid, &mut force_r, &mut force_t, &mut rng)?;
+        // A further modulation of the same impacts (a load that varies at a rate of its
+        // own, a process pulsation, on top of the load zone the train carries): their
+        // amplitudes multiplied by it, in the train's form, at a rate that does not
+        // follow the shaft's speed.
+        for (e, p) in self.effects_of("load_zone_modulation").into_iter().skip(1) {
+            if let (Effect::LoadZoneModulation { mod_hz }, Some(q)) = (e, p.first()) {
+                let depth = 1.0 / (1.0 + (-q.value).exp());
+                let w = 2.0 * std::f64::consts::PI * mod_hz;
+                for (j, f) in force_r.iter_mut().enumerate() {
+                    let t = grid.t0 + j as f64 * grid.dt;
+                    *f *= 1.0 - depth + depth * 0.5 * (1.0 + (w * t).cos());
+                }
+            }
+        }
         // Background force: the same unit-variance sequence for every evaluation with
         // this seed, scaled per half-step sample so the level does not depend on the step.
         let bg = get("ln_background").map_or(0.0, f64::exp) * (OVERSAMPLE as f64).sqrt();

@@ -307,14 +307,14 @@ pub fn on_model_comb(model: &TwinModel, c: &Component, df: f64, span_s: f64) -> 
     if c.kind != "line" {
         return false;
     }
-    let mut sideband = 0.0;
+    let mut sidebands = Vec::new();
     let mut drift = 0.0;
     // (rate, load-zone sideband spacing or 0) of every impact comb the model has.
     let mut combs: Vec<(f64, f64)> = Vec::new();
     let freqs = &model.op.freqs;
     for (e, first) in &model.effects {
         match e {
-            Effect::LoadZoneModulation { mod_hz } => sideband = *mod_hz,
+            Effect::LoadZoneModulation { mod_hz } => sidebands.push(*mod_hz),
             Effect::SpeedDrift { .. } => drift = model.params[*first].value.abs(),
             Effect::SecondImpactTrain { rate_hz, .. } => combs.push((
                 *rate_hz,
@@ -326,7 +326,11 @@ pub fn on_model_comb(model: &TwinModel, c: &Component, df: f64, span_s: f64) -> 
     }
     if let Some(loc) = model.fault {
         let r = f64::from(freqs.impact_rate(loc)) * (1.0 + model.get("rate_factor").unwrap_or(0.0));
-        combs.push((r, sideband));
+        if sidebands.is_empty() {
+            combs.push((r, 0.0));
+        }
+        // Each modulation of the impacts puts its own sidebands around the teeth.
+        combs.extend(sidebands.iter().map(|&side| (r, side)));
     }
     // The distance to the nearest tooth (or sideband) within tolerance.
     let offset = combs
@@ -799,6 +803,17 @@ pub const MAX_UNEXPLAINED_BANDS: usize = 2;
 /// a mode the impacts excite strengthens the rhythm (generated modes −6 to −1 dB).
 pub const BURST_DILUTION_DB: f32 = 1.0;
 
+/// Most modulations of the impacts the loop adds (see the tracer).
+pub const MAX_MODULATIONS: usize = 2;
+
+/// Does the model modulate its impacts at `f_hz` already (within 3 %)?
+fn modulated_at(model: &TwinModel, f_hz: f64) -> bool {
+    model
+        .effects_of("load_zone_modulation")
+        .into_iter()
+        .any(|(e, _)| matches!(e, Effect::LoadZoneModulation { mod_hz } if (mod_hz - f_hz).abs() <= 0.03 * f_hz))
+}
+
 fn has(model: &TwinModel, name: &str) -> bool {
     model.effects.iter().any(|(e, _)| e.name() == name)
 }
@@ -1126,13 +1141,13 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
     // are the evidence of `load_zone_modulation` (read from the envelope), not tones. A
     // stationary outer-race defect has no load zone to pass through.
     let sideband = |c: &Component| {
-        let Some(loc) = model.fault.filter(|_| !has(model, "load_zone_modulation")) else {
+        let Some(loc) = model.fault else {
             return false;
         };
         let fd = f64::from(model.op.freqs.impact_rate(loc))
             * (1.0 + model.get("rate_factor").unwrap_or(0.0));
         let fm = f64::from(model.op.freqs.modulation_rate(loc));
-        if fm <= 0.0 {
+        if fm <= 0.0 || modulated_at(model, fm) {
             return false;
         }
         let tol = 1.5 * df + 0.001 * c.f_hz;
@@ -1583,7 +1598,11 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
     }
 
     // --- Envelope: modulation sidebands k·f_d ± m·f_mod.
-    if let (Some(loc), false) = (model.fault, has(model, "load_zone_modulation")) {
+    // Up to two: the load zone the defect turns through and a load that varies at a
+    // rate of its own (a process pulsation on an inner-race fault) multiply the same
+    // impacts; a second is read at a rate the model does not modulate at yet.
+    let modulations = model.effects_of("load_zone_modulation").len();
+    if let (Some(loc), true) = (model.fault, modulations < MAX_MODULATIONS) {
         let fd = f64::from(model.op.freqs.impact_rate(loc));
         let fm = f64::from(model.op.freqs.modulation_rate(loc));
         let fm = if fm > 0.0 { fm } else { shaft };
@@ -1596,7 +1615,8 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
             .filter(|c| load_zone_line(c.f_hz, fd, fm, (2.0 * dfe).max(0.01 * c.f_hz)))
             .cloned()
             .collect();
-        let kinematic = !side.is_empty() && loc != DefectLocation::OuterRace || side.len() >= 2;
+        let kinematic = !modulated_at(model, fm)
+            && (!side.is_empty() && loc != DefectLocation::OuterRace || side.len() >= 2);
         // A slow rate read again on the longest block the record holds (4 s at 12 kHz:
         // 0.37 Hz bins against the Welch block's 1.46 Hz), within a residual bin of
         // where the residual put it and three long bins clear of DC.
@@ -1622,13 +1642,37 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
             let f = peak_frequency(spec, fs, lo as f32, (f0 + dfe) as f32).ok()?;
             Some(f64::from(f))
         };
-        let measured = measured_modulation(&analysis.envelope, fd, &[fm, shaft], dfe, refine)
+        let mut known = vec![fm, shaft];
+        known.extend(
+            model
+                .effects_of("load_zone_modulation")
+                .into_iter()
+                .filter_map(|(e, _)| match e {
+                    Effect::LoadZoneModulation { mod_hz } => Some(*mod_hz),
+                    _ => None,
+                }),
+        );
+        let measured = measured_modulation(&analysis.envelope, fd, &known, dfe, refine)
             .filter(|m| !kinematic || m.sidebands > side.len());
         if let Some(m) = measured {
             let strength = m.lines.iter().map(|c| c.excess_db).fold(0.0, f32::max);
             let ftf = f64::from(model.op.freqs.ftf);
-            let source = if (m.rate_hz - ftf).abs() < (1.5 * dfe).max(NAMED_RATE_TOLERANCE * ftf) {
+            let bsf = f64::from(model.op.freqs.bsf);
+            let near = |f: f64| (m.rate_hz - f).abs() < (1.5 * dfe).max(NAMED_RATE_TOLERANCE * f);
+            // A whole multiple of a rate the bearing or the shaft has: the load zone a
+            // rotating defect passes is narrower than a turn, so it modulates the
+            // impacts at the harmonics of its rate too (its shape, not a new load); on
+            // a stationary outer-race defect, a load that turns with the shaft does.
+            let rotating = loc != DefectLocation::OuterRace;
+            let multiple = |f: f64| (2..=4).find(|&k| near(f64::from(k) * f));
+            let source = if near(ftf) {
                 "the cage rate: the load zone turns with the cage (a cage or rolling-element defect, or a cage that slips)".to_string()
+            } else if let Some(k) = multiple(fm).filter(|_| rotating) {
+                format!("{k} x the load zone's rate ({fm:.2} Hz): the load zone's shape, a zone of load narrower than a turn that modulates the impacts at the harmonics of its rate too")
+            } else if near(bsf) {
+                format!("{:.3} x shaft, the rolling elements' spin rate (BSF, {bsf:.1} Hz): the load varies as an element spins (an element of uneven size or surface)", m.rate_hz / shaft)
+            } else if let Some(k) = multiple(shaft) {
+                format!("{k} x the shaft rate: a load that turns with the shaft (an unbalance, a bent shaft, a misalignment) and modulates the impacts at its orders")
             } else {
                 format!(
                     "{:.3} x shaft, no rate of the bearing or the shaft: the load on the bearing varies at this rate (a process pulsation, a beat with a machine running at a nearly equal speed, a belt or a foundation's rocking)",
