@@ -415,6 +415,18 @@ fn a_wandering_tone_is_a_narrow_band() {
     );
 }
 
+/// `x` (at the generator's rate) times `1 + depth·sin 2π·rate·t`: the whole vibration
+/// swelling and fading as the load on the bearing does.
+fn modulated(x: &[f32], rate: f64, depth: f64) -> Vec<f32> {
+    x.iter()
+        .enumerate()
+        .map(|(i, &v)| {
+            let t = i as f64 / f64::from(FS_HZ);
+            v * (1.0 + depth * (2.0 * std::f64::consts::PI * rate * t).sin()) as f32
+        })
+        .collect()
+}
+
 /// The whole vibration swelling and fading at a rate no kinematics name (a pump's
 /// flow pulsating, a neighbour's beat: the load on the bearing varies): the envelope
 /// shows a line at the rate and sidebands `k·BPFO ± rate` around the defect comb, a
@@ -428,15 +440,7 @@ fn a_slow_load_variation_is_a_modulation_at_its_own_rate() {
     let clean_x = clean_record();
     let clean = loop_signal(clean_x.clone());
     for (rate, depth) in [(1.8, 0.5), (6.1, 0.3)] {
-        let x: Vec<f32> = clean_x
-            .iter()
-            .enumerate()
-            .map(|(i, &v)| {
-                let t = i as f64 / f64::from(FS_HZ);
-                v * (1.0 + depth * (2.0 * std::f64::consts::PI * rate * t).sin()) as f32
-            })
-            .collect();
-        let report = loop_signal(x);
+        let report = loop_signal(modulated(&clean_x, rate, depth));
         let step = first_step(&report, &format!("{rate} Hz"));
         let Effect::LoadZoneModulation { mod_hz } = step.detail else {
             panic!("{rate} Hz: named {:?}", step.detail);
@@ -477,15 +481,7 @@ fn a_pulsating_load_on_an_inner_race_fault_is_a_second_modulation() {
     let plain = loop_signal(x.clone());
     let shaft = f64::from(RPM) / 60.0;
     for (rate, depth) in [(2.7, 0.5), (6.1, 0.3)] {
-        let y: Vec<f32> = x
-            .iter()
-            .enumerate()
-            .map(|(i, &v)| {
-                let t = i as f64 / f64::from(FS_HZ);
-                v * (1.0 + depth * (2.0 * std::f64::consts::PI * rate * t).sin()) as f32
-            })
-            .collect();
-        let report = loop_signal(y);
+        let report = loop_signal(modulated(&x, rate, depth));
         let rates: Vec<f64> = report
             .steps
             .iter()
