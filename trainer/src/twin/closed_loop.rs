@@ -587,10 +587,9 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
         return Err(LoopError::Input("signal contains NaN or infinity".into()));
     }
     let n_max = (cfg.max_record_seconds * f64::from(input.fs_hz)) as usize;
-    let dropouts = input
-        .held_runs
-        .unwrap_or_else(|| held_runs(&input.signal[..input.signal.len().min(n_max)]));
-    let x = &ac_couple(&input.signal[..input.signal.len().min(n_max)], input.fs_hz);
+    let record = &input.signal[..input.signal.len().min(n_max)];
+    let dropouts = input.held_runs.unwrap_or_else(|| held_runs(record));
+    let x = &ac_couple(record, input.fs_hz);
     let too_short = |e: SignatureError| LoopError::Input(format!("the record is too short: {e}"));
     let op = OperatingPoint {
         fs_hz: input.fs_hz,

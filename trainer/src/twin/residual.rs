@@ -806,12 +806,23 @@ pub const BURST_DILUTION_DB: f32 = 1.0;
 /// Most modulations of the impacts the loop adds (see the tracer).
 pub const MAX_MODULATIONS: usize = 2;
 
-/// Does the model modulate its impacts at `f_hz` already (within 3 %)?
-fn modulated_at(model: &TwinModel, f_hz: f64) -> bool {
+/// The rates, Hz, the model modulates its impacts at.
+fn modulation_rates(model: &TwinModel) -> Vec<f64> {
     model
         .effects_of("load_zone_modulation")
         .into_iter()
-        .any(|(e, _)| matches!(e, Effect::LoadZoneModulation { mod_hz } if (mod_hz - f_hz).abs() <= 0.03 * f_hz))
+        .filter_map(|(e, _)| match e {
+            Effect::LoadZoneModulation { mod_hz } => Some(*mod_hz),
+            _ => None,
+        })
+        .collect()
+}
+
+/// Does the model modulate its impacts at `f_hz` already (within 3 %)?
+fn modulated_at(model: &TwinModel, f_hz: f64) -> bool {
+    modulation_rates(model)
+        .iter()
+        .any(|m| (m - f_hz).abs() <= 0.03 * f_hz)
 }
 
 fn has(model: &TwinModel, name: &str) -> bool {
@@ -1601,7 +1612,7 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
     // Up to two: the load zone the defect turns through and a load that varies at a
     // rate of its own (a process pulsation on an inner-race fault) multiply the same
     // impacts; a second is read at a rate the model does not modulate at yet.
-    let modulations = model.effects_of("load_zone_modulation").len();
+    let modulations = modulation_rates(model).len();
     if let (Some(loc), true) = (model.fault, modulations < MAX_MODULATIONS) {
         let fd = f64::from(model.op.freqs.impact_rate(loc));
         let fm = f64::from(model.op.freqs.modulation_rate(loc));
@@ -1643,15 +1654,7 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
             Some(f64::from(f))
         };
         let mut known = vec![fm, shaft];
-        known.extend(
-            model
-                .effects_of("load_zone_modulation")
-                .into_iter()
-                .filter_map(|(e, _)| match e {
-                    Effect::LoadZoneModulation { mod_hz } => Some(*mod_hz),
-                    _ => None,
-                }),
-        );
+        known.extend(modulation_rates(model));
         let measured = measured_modulation(&analysis.envelope, fd, &known, dfe, refine)
             .filter(|m| !kinematic || m.sidebands > side.len());
         if let Some(m) = measured {
