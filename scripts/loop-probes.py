@@ -30,9 +30,13 @@ their rate and speed (`# fs_hz=… rpm=…`):
                        (depth d): a load that swells and fades at no kinematic rate
     rb<n>.csv          + n = 100, 200, 400 random ring-downs (3.3 kHz, 600 Hz wide,
                        random strength): bursts over the structure's band
+    (eighteenth session; needs OUT_DIR/lz.csv, an inner-race fault with its load zone:
+     pumptwin twin generate --effect load-zone-modulation --seed 1 --duration 4 --out OUT_DIR/lz.csv)
+    lz_am<f>.csv       lz.csv amplitude-modulated at f = 2.7 Hz (50 %) or 6.1 Hz (30 %):
+                       a pulsating pump load on top of the load zone
 
 Then `pumptwin twin loop --input OUT_DIR/<name>.csv --out OUT_DIR/<name>`; the figures
-of the fourteenth to sixteenth sessions' notes are each report.json's `steps`, `error_initial` and
+of the fourteenth to eighteenth sessions' notes are each report.json's `steps`, `error_initial` and
 `error_final`.
 """
 import sys
@@ -102,6 +106,13 @@ def main():
         for p in rng.choice(len(clean) - len(h), n, replace=False):
             y[p : p + len(h)] += a * rng.uniform(0.5, 1.5) * h
         write(out / f"rb{n}.csv", y, fs, rpm)
+
+    # Eighteenth session: a pulsating load on an inner-race fault's load zone.
+    if (out / "lz.csv").exists():
+        lz = np.loadtxt(out / "lz.csv", skiprows=2)
+        tl = np.arange(len(lz)) / fs
+        for f, d in ((2.7, 0.5), (6.1, 0.3)):
+            write(out / f"lz_am{f}.csv", lz * (1 + d * np.sin(2 * np.pi * f * tl)), fs, rpm)
 
 
 if __name__ == "__main__":
