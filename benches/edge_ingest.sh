@@ -44,7 +44,7 @@ PY
   fi
   BUS_S=$((MINUTES * 60))
 else
-  cargo build --release -p pumptwin-trainer -p pumptwin-edge
+  cargo build --release -p pumptwin -p pumptwin-edge
   log="$T/bench/ten-minutes.log"
   if [ ! -s "$log" ]; then
     recs=""

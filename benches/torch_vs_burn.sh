@@ -14,7 +14,7 @@ if [ ! -x .venv-torch/bin/python ]; then
     python3 -m venv .venv-torch
 fi
 .venv-torch/bin/python -c "import torch, numpy" 2>/dev/null || .venv-torch/bin/pip install -q torch numpy
-cargo build --release -p pumptwin-trainer --example dump_tensors --bin pumptwin
+cargo build --release -p pumptwin-trainer --example dump_tensors && cargo build --release -p pumptwin --bin pumptwin
 ./target/release/examples/dump_tensors "$DATA" "$OUT/tensors"
 # burn: the same DS-STGAT without the co-adaptation heads (the PyTorch script has
 # none); the per-epoch seconds exclude the simulated pre-training, as for PyTorch.

@@ -12,7 +12,7 @@ def pumptwin():
     """Path of the release `pumptwin` binary; builds it when it is not there."""
     exe = os.path.join(ROOT, "target/release/pumptwin")
     if not os.path.exists(exe):
-        subprocess.run(["cargo", "build", "--release", "-p", "pumptwin-trainer", "--bin", "pumptwin"],
+        subprocess.run(["cargo", "build", "--release", "-p", "pumptwin", "--bin", "pumptwin"],
                        cwd=ROOT, check=True)
     return exe
 

@@ -28,7 +28,7 @@ out=out/dev-sweep/$const
 mkdir -p "$out"
 for v in $values; do
   sed -i "s/^pub const $const: $ty = .*;/pub const $const: $ty = $v;/" "$src"
-  cargo build --release -q -p pumptwin-trainer --bin pumptwin
+  cargo build --release -q -p pumptwin --bin pumptwin
   for seed in $seeds; do
     for p in $protocols; do
       dir=$out/$v-$p-$seed

@@ -23,7 +23,7 @@ if ! "$venv/bin/python" -c "import numpy" 2>/dev/null; then
   python3 -m venv "$venv"
   "$venv/bin/pip" install -q numpy scikit-learn
 fi
-cargo build --release -q -p pumptwin-trainer --bin pumptwin
+cargo build --release -q -p pumptwin --bin pumptwin
 out=out/expert-fusion
 mkdir -p "$out"
 run() { # protocol seed

@@ -17,7 +17,7 @@ nodes=${4:-measured}
 data=${DATA:-../shared/data/cwru}
 suffix=""
 [ "$nodes" = measured ] || suffix="+$nodes-nodes"
-cargo build --release -q -p pumptwin-trainer --bin pumptwin
+cargo build --release -q -p pumptwin --bin pumptwin
 mkdir -p out/seeds
 for a in $ablations; do
   for p in $protocols; do

@@ -8,12 +8,13 @@
 //! | [`bearing`] | bearing geometry, defect frequencies (BPFO, BPFI, BSF, FTF) | §5.2, eq. 18 (T_impact) |
 //! | [`excitation`] | impact trains, shaft sinusoid, random pulses, composite force | eqs. 18–20 |
 //! | [`simulator`] | 2-DOF mass–damper–stiffness model with cubic stiffness, fixed-step RK4, sensor nodes | eqs. 16–17, 21–22 |
-//! | [`fft`] | radix-2 FFT with a caller-owned plan | §4.3, §5.3 |
+//! | [`fft`] | radix-2 FFT (no plan: twiddles from a recurrence, in place) | §4.3, §5.3 |
 //! | [`fir`] | windowed-sinc low-pass, the common band limit and anti-alias filter | — |
 //! | [`features`] | time, spectral and envelope-spectrum node features | eq. 9, Table 3 |
 //! | [`tracking`] | on-edge tracking of radial stiffness and damping Θ by eq. 10 steps on a feature-space loss against the RK4 model | §4.3 eq. 10, eqs. 16–22 |
 //! | [`graph`] | dynamic sparse sensor graph: prior ⊕ Pearson, threshold, normalization | eqs. 1–3 |
 //! | [`quant`] | int8 DS-STGAT kernels (linear, LUTs, softmax, GAT, GRU, pooling, classifier) with float references | eqs. 4–8 |
+//! | [`layout`] | the window, hop, steps, sensor nodes and sensor-head inputs every side agrees on | — |
 //! | [`dsstgat`] | the whole int8 DS-STGAT on one window (embedding → GAT → GRU → pooling → class and indicator heads, and the sensor head on the window-mean features) and its float reference | eqs. 4–9, 12–13 |
 //! | [`model_file`] | the postcard model file: header, CRC-32, fixed-capacity payload, checked decoding into the [`quant`] kernels | §4.2 (the trained DS-STGAT) |
 //! | [`rng`] | seeded PRNG (xoshiro128++), Gaussian and Poisson draws | §5.2 random excitation |
@@ -37,6 +38,7 @@ pub mod features;
 pub mod fft;
 pub mod fir;
 pub mod graph;
+pub mod layout;
 mod math;
 pub mod model_file;
 pub mod quant;

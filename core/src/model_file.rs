@@ -143,10 +143,10 @@ use heapless::{String, Vec};
 use serde::{Deserialize, Serialize};
 
 use crate::bearing::BearingGeometry;
-use crate::dsstgat::SENSOR_HEAD_INPUTS;
 use crate::error::{Error, Result};
 use crate::features::{FeatureNorm, FEATURE_DIM};
 use crate::graph::GraphConfig;
+use crate::layout::SENSOR_HEAD_INPUTS;
 use crate::quant::linear::MAX_BIAS;
 use crate::quant::pool::MAX_POOL_PAIRS;
 use crate::quant::{

@@ -38,8 +38,8 @@ use crate::diagnosis::{DiagnoseError, Diagnoser};
 use crate::explain::KinematicLine;
 use crate::pipeline::{ChannelOutcome, Window, SEGMENTS};
 
-/// Sensor nodes of the models this gateway runs.
-pub const NODES: usize = 3;
+/// Sensor nodes of the models this gateway runs (the core's layout).
+pub const NODES: usize = pumptwin_core::layout::N_NODES;
 
 /// Why a model file cannot be used.
 #[derive(Debug, thiserror::Error)]

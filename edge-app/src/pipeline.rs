@@ -102,12 +102,9 @@ use pumptwin_core::simulator::BearingParams;
 use pumptwin_core::tracking::{Tracker, TrackerConfig};
 use serde::Serialize;
 
-/// Samples per window.
-pub const WINDOW: usize = 2048;
-/// Samples between window starts (50 % overlap).
-pub const HOP: usize = WINDOW / 2;
-/// Segments (graph steps) per window.
-pub const SEGMENTS: usize = pumptwin_core::features::STANDARD_SEGMENTS;
+/// Window, hop (50 % overlap) and graph steps: the core's layout, which training and
+/// `predict` read too.
+pub use pumptwin_core::layout::{HOP, SEGMENTS, WINDOW};
 /// Ring size per channel.
 pub const RING: usize = 2 * WINDOW;
 const _: () = assert!(RING >= WINDOW + MAX_SAMPLES_PER_FRAME && HOP >= MAX_SAMPLES_PER_FRAME);
@@ -122,12 +119,6 @@ pub const ENV_BPFI_DB: usize = feature_index("env_bpfi_db");
 pub const ENV_BSF_DB: usize = feature_index("env_bsf_db");
 /// `env_kurtosis` in a feature row.
 pub const ENV_KURTOSIS: usize = feature_index("env_kurtosis");
-
-/// The feature configuration for `machine`: the core's [`FeatureConfig::standard`], the
-/// one the trainer uses, so a model sees the features it was trained on.
-pub fn feature_config(machine: &Machine) -> FeatureConfig {
-    FeatureConfig::standard(machine.fs_hz, machine.shaft_hz(), machine.bearing.orders())
-}
 
 /// Frame periods of silence on a channel, beyond the one expected, that make a gap
 /// by the clock: half the 8-bit counter's range (module docs).
@@ -491,7 +482,7 @@ impl Pipeline {
     /// machine); the band-limit filter cannot be designed for the map's rate (not for
     /// a validated map: its rate is above the envelope band).
     pub fn new(map: SensorMap) -> Result<Self, pumptwin_core::Error> {
-        let cfg = feature_config(&map.machine);
+        let cfg = map.machine.feature_config();
         cfg.check_speed(WINDOW)?;
         let fs = map.machine.fs_hz;
         let cutoff = cfg.band_limit_hz.min(MAX_CUTOFF_FRACTION * fs);
@@ -953,7 +944,7 @@ mod tests {
              [[channel]]\nname = \"DE\"\ncan_id = 0x101\nsamples_per_frame = 4\nscale = 0.001\n",
         )
         .unwrap();
-        let cfg = feature_config(&map.machine);
+        let cfg = map.machine.feature_config();
         assert_eq!(
             cfg.envelope_band,
             pumptwin_core::features::EnvelopeBand::DEFAULT

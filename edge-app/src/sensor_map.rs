@@ -32,6 +32,7 @@
 use crate::candump::{Frame, CANFD_LENGTHS, CANFD_MAX_DLEN, CAN_MAX_DLEN, EFF_MAX, SFF_MAX};
 use crate::dbc::SlowSignals;
 use pumptwin_core::bearing::BearingGeometry;
+use pumptwin_core::features::FeatureConfig;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
@@ -76,6 +77,13 @@ impl Machine {
     /// Shaft rate in Hz.
     pub fn shaft_hz(&self) -> f32 {
         self.rpm / 60.0
+    }
+
+    /// The feature configuration for this machine: the core's
+    /// [`FeatureConfig::standard`], the one the trainer uses, so a model sees the
+    /// features it was trained on.
+    pub fn feature_config(&self) -> FeatureConfig {
+        FeatureConfig::standard(self.fs_hz, self.shaft_hz(), self.bearing.orders())
     }
 }
 
@@ -495,8 +503,9 @@ fn validate_machine(raw: RawMachine) -> Result<Machine, SensorMapError> {
         bearing_name,
         fs_hz: fs as f32,
     };
-    crate::pipeline::feature_config(&machine)
-        .check_speed(crate::pipeline::WINDOW)
+    machine
+        .feature_config()
+        .check_speed(pumptwin_core::layout::WINDOW)
         .map_err(|e| SensorMapError::Speed {
             rpm,
             reason: e.to_string(),

@@ -1,33 +1,8 @@
-//! The trainer's CSV loader, compiled from its own source file (no copy of its logic):
-//! `trainer/src/data/csv.rs` is included as a module, beside a `record` module that
-//! holds the two plain data types it builds (the trainer's `record.rs` pulls in the
-//! `.mat` selection, manifests and preprocessing, which this target does not need).
+//! The data crate's CSV loader (`pumptwin_data::csv`), as the command line uses it.
 #![no_main]
-#![allow(dead_code)]
 
 use libfuzzer_sys::fuzz_target;
-
-/// The two types `csv.rs` builds, field for field as in `trainer/src/data/record.rs`.
-mod record {
-    /// One channel.
-    #[derive(Debug, Clone, PartialEq)]
-    pub struct Channel {
-        pub name: String,
-        pub samples: Vec<f32>,
-    }
-
-    /// Simultaneously sampled channels.
-    #[derive(Debug, Clone, PartialEq)]
-    pub struct Recording {
-        pub name: String,
-        pub fs_hz: f32,
-        pub rpm: Option<f32>,
-        pub channels: Vec<Channel>,
-    }
-}
-
-#[path = "../../trainer/src/data/csv.rs"]
-mod csv;
+use pumptwin_data::csv;
 
 fuzz_target!(|data: &[u8]| {
     let Ok(text) = std::str::from_utf8(data) else {

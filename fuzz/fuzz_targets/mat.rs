@@ -1,13 +1,9 @@
-//! The trainer's MAT level-5 reader, compiled from its own source file
-//! (`trainer/src/data/mat.rs`, std-only) into this target: every variable of a file
-//! that reads is asked for its vector form.
+//! The data crate's MAT level-5 reader (`pumptwin_data::mat`): every variable of a
+//! file that reads is asked for its vector form.
 #![no_main]
-#![allow(dead_code)]
 
 use libfuzzer_sys::fuzz_target;
-
-#[path = "../../trainer/src/data/mat.rs"]
-mod mat;
+use pumptwin_data::mat;
 
 fuzz_target!(|data: &[u8]| {
     if let Ok(file) = mat::read_mat(data) {

@@ -12,7 +12,7 @@
 use std::io::Write;
 use std::path::PathBuf;
 
-use pumptwin_trainer::data::windows::Protocol;
+use pumptwin_data::windows::Protocol;
 use pumptwin_trainer::dataset::{FEATURES, NODES, N_INDICATORS, N_NODES, STEPS};
 use pumptwin_trainer::training::{class_weights, load_protocol, TrainConfig};
 

@@ -27,8 +27,8 @@ use anyhow::{Context, Result};
 use burn::tensor::activation::log_softmax;
 use burn::tensor::Device;
 use pumptwin_core::features::{feature_index, FEATURE_DIM};
+use pumptwin_data::featurize::SEGMENTS;
 use pumptwin_trainer::dataset::{Dataset, NODES};
-use pumptwin_trainer::featurize::SEGMENTS;
 use pumptwin_trainer::metrics::{noise_spec, NOISE_SNR_DB};
 use pumptwin_trainer::training::{
     load_protocol, load_trained_config, parse_protocol, Batch, BatchParts, Network,

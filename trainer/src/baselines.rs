@@ -29,8 +29,8 @@ use burn::nn::{BatchNorm, BatchNormConfig, Linear, LinearConfig, PaddingConfig1d
 use burn::tensor::activation::{relu, softmax, tanh};
 use burn::tensor::{Device, Distribution, Tensor};
 
-use crate::featurize::WINDOW;
 use crate::model::{Gru, MASKED_LOGIT};
+use pumptwin_data::featurize::WINDOW;
 
 /// One conv → batch norm → ReLU → max-pool stage.
 #[derive(Module, Debug)]

@@ -1,7 +1,7 @@
-//! `pumptwin compare`: every model of the comparison (the DS-STGAT, its three
+//! The comparison table (`pumptwin compare`): every model of the comparison (the DS-STGAT, its three
 //! ablations and the four baselines) on every protocol, in one table; below it, apart,
 //! the DS-STGAT with the paper's derived temperature and pressure nodes (section 6.2,
-//! [`crate::derived`]), which sees five nodes computed from three sensors.
+//! [`pumptwin_data::derived`]), which sees five nodes computed from three sensors.
 //!
 //! Each (protocol, model) run lives in `RUNS/<protocol>/<model>/` as `pumptwin train`
 //! writes it; a run whose `metrics.json` exists is reused, a missing one is trained
@@ -9,42 +9,16 @@
 //! `OUT/compare.md` and `OUT/compare.json`, with `OUT/radar.png` (accuracy per
 //! protocol and under noise, per model) and `OUT/ablation.png`.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use plotters::prelude::*;
 use serde::Serialize;
 
-use crate::data::windows::Protocol;
 use crate::dataset::NodeSet;
-use crate::plot::{draw_legend, register_font};
-use crate::training::{run_name, run_train, value_name, Ablation, Arch, TrainArgs, METRICS_FILE};
-
-/// `pumptwin compare`.
-#[derive(Debug, Clone, clap::Args)]
-pub struct CompareArgs {
-    /// Data directory holding MANIFEST.tsv.
-    #[arg(long)]
-    pub data: PathBuf,
-    /// Where the runs live (trained here when missing).
-    #[arg(long, default_value = "out/runs")]
-    pub runs: PathBuf,
-    /// Output directory of the table and charts.
-    #[arg(long)]
-    pub out: PathBuf,
-    /// Protocols (default: all three).
-    #[arg(long, value_enum, num_args = 1..)]
-    pub protocols: Vec<Protocol>,
-    /// Epochs for runs trained here (default: the training default).
-    #[arg(long)]
-    pub epochs: Option<usize>,
-    /// Seed for runs trained here.
-    #[arg(long, default_value_t = 42)]
-    pub seed: u64,
-    /// Only tabulate the runs that exist; train nothing.
-    #[arg(long)]
-    pub no_train: bool,
-}
+use crate::training::{run_name, value_name, Ablation, Arch, METRICS_FILE};
+use pumptwin_data::windows::Protocol;
+use pumptwin_twin::plot::{draw_legend, register_font};
 
 /// The models of the table, in row order.
 pub const MODELS: [(Arch, Ablation); 8] = [
@@ -109,85 +83,19 @@ pub struct Comparison {
     pub separate: Vec<Row>,
 }
 
-fn read_metrics(dir: &Path) -> Option<serde_json::Value> {
+/// A run's `metrics.json`, if it exists and parses.
+pub fn read_metrics(dir: &Path) -> Option<serde_json::Value> {
     let text = std::fs::read_to_string(dir.join(METRICS_FILE)).ok()?;
     serde_json::from_str(&text).ok()
 }
 
-/// Run `pumptwin compare`.
-pub fn run_compare(args: &CompareArgs) -> Result<()> {
-    let protocols: Vec<Protocol> = if args.protocols.is_empty() {
-        Protocol::ALL.to_vec()
-    } else {
-        args.protocols.clone()
-    };
-    let mut rows = Vec::new();
-    for (arch, ablation) in MODELS {
-        rows.push(model_row(
-            args,
-            &protocols,
-            arch,
-            ablation,
-            NodeSet::Measured,
-        )?);
-    }
-    let mut separate = Vec::new();
-    for (arch, ablation, nodes) in SEPARATE {
-        separate.push(model_row(args, &protocols, arch, ablation, nodes)?);
-    }
-    let cmp = Comparison {
-        protocols: protocols.iter().map(|p| p.name().to_string()).collect(),
-        rows,
-        separate,
-    };
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("cannot create {}", args.out.display()))?;
-    let md = markdown(&cmp);
-    std::fs::write(args.out.join("compare.md"), &md)?;
-    std::fs::write(
-        args.out.join("compare.json"),
-        serde_json::to_string_pretty(&cmp)? + "\n",
-    )?;
-    radar(&args.out.join("radar.png"), &cmp)?;
-    ablation_chart(&args.out.join("ablation.png"), &cmp)?;
-    print!("{md}");
-    eprintln!("wrote {}", args.out.display());
-    Ok(())
-}
-
-/// The row of one model: its runs read, or trained where missing (unless
-/// `--no-train`).
-fn model_row(
-    args: &CompareArgs,
+/// The row of model `name` from its runs' `metrics.json` (one per protocol, `None`
+/// where the run is missing).
+pub fn row_from_metrics(
+    name: String,
     protocols: &[Protocol],
-    arch: Arch,
-    ablation: Ablation,
-    nodes: NodeSet,
-) -> Result<Row> {
-    let name = model_name(arch, ablation, nodes);
-    let mut metrics = Vec::new();
-    for &p in protocols {
-        let dir = args.runs.join(p.name()).join(&name);
-        if read_metrics(&dir).is_none() && !args.no_train {
-            eprintln!("== training {name} on {}", p.name());
-            run_train(&TrainArgs {
-                data: args.data.clone(),
-                protocol: p,
-                out: dir.clone(),
-                config: None,
-                epochs: args.epochs,
-                seed: Some(args.seed),
-                no_monitor: true,
-                arch,
-                ablation,
-                nodes,
-                theta_cache: args.runs.join("cache").join("theta"),
-                no_figures: false,
-            })
-            .with_context(|| format!("training {name} on {}", p.name()))?;
-        }
-        metrics.push(read_metrics(&dir));
-    }
+    metrics: &[Option<serde_json::Value>],
+) -> Row {
     let f = |m: &Option<serde_json::Value>, key: &str| {
         m.as_ref()
             .and_then(|v| v.get(key))
@@ -212,7 +120,7 @@ fn model_row(
                 .collect()
         })
         .unwrap_or_default();
-    Ok(Row {
+    Row {
         model: name,
         accuracy: metrics.iter().map(|m| f(m, "accuracy")).collect(),
         fault_only_accuracy: metrics
@@ -234,7 +142,7 @@ fn model_row(
                 ))
             })
             .collect(),
-    })
+    }
 }
 
 fn pct(v: Option<f64>) -> String {

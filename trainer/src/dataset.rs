@@ -44,27 +44,31 @@ use pumptwin_core::features::{
 use pumptwin_core::graph::{Adjacency, GraphConfig};
 use pumptwin_core::rng::Xoshiro128pp;
 
-use crate::data::manifest::{read_manifest, ManifestEntry, ManifestError};
-use crate::data::preprocess::MODEL_FS_HZ;
-use crate::data::preprocess::{preprocess, PreprocessConfig};
-use crate::data::record::{load_entry, Channel, EntryError, Recording};
-use crate::data::windows::{build_split, Protocol, RecordMeta, Split, SplitError, WindowConfig};
-use crate::data::WindowRef;
-use crate::featurize::{
+use crate::physics::{spectrum_shape, Theta, N_THETA, SPEC_BANDS};
+use pumptwin_data::entry::{load_entry, EntryError};
+use pumptwin_data::featurize::{
     feature_config, fit_norm, window_features, window_graphs, MaskCounts, WindowFeatures, SEGMENTS,
     WINDOW,
 };
-use crate::physics::{spectrum_shape, Theta, N_THETA, SPEC_BANDS};
+use pumptwin_data::manifest::{read_manifest, ManifestEntry, ManifestError};
+use pumptwin_data::preprocess::MODEL_FS_HZ;
+use pumptwin_data::preprocess::{preprocess, PreprocessConfig};
+use pumptwin_data::recording::{Channel, Recording};
+use pumptwin_data::windows::{build_split, Protocol, RecordMeta, Split, SplitError, WindowConfig};
+use pumptwin_data::WindowRef;
 
-/// Node channels, in node order: the measured sensors (the product's layout, the
-/// one the int8 model file and the edge run).
-pub const NODES: [&str; N_NODES] = ["DE", "FE", "BA"];
-/// Number of graph nodes of the measured layout.
-pub const N_NODES: usize = 3;
+/// Node channels, in node order, and their number: the measured sensors (the core's
+/// layout, the one the int8 model file and the edge run).
+pub use pumptwin_core::layout::{NODE_NAMES as NODES, N_NODES};
 /// The measured nodes plus the paper's derived temperature and pressure nodes
-/// (section 6.2, [`crate::derived`]): the `--nodes derived` option.
-pub const DERIVED_NODES: [&str; N_DERIVED_NODES] =
-    ["DE", "FE", "BA", crate::derived::TEMP, crate::derived::PRES];
+/// (section 6.2, [`pumptwin_data::derived`]): the `--nodes derived` option.
+pub const DERIVED_NODES: [&str; N_DERIVED_NODES] = [
+    "DE",
+    "FE",
+    "BA",
+    pumptwin_data::derived::TEMP,
+    pumptwin_data::derived::PRES,
+];
 /// Number of graph nodes with the derived nodes.
 pub const N_DERIVED_NODES: usize = 5;
 
@@ -235,7 +239,7 @@ pub fn featurize_windows<const N: usize>(
     let mut out: Vec<Option<WindowFeatures<N>>> = vec![None; windows.len()];
     let rw = N * WINDOW;
     let mut raw = vec![0.0f32; windows.len() * rw];
-    let derive = crate::derived::any_derived(nodes);
+    let derive = pumptwin_data::derived::any_derived(nodes);
     for record in records {
         let r = &corpus.records[record];
         let cfg = feature_config(r.rec.fs_hz, r.shaft_hz, orders);
@@ -302,7 +306,7 @@ fn window_recording(
         Some(spec) => {
             let mut out = noisy_windows(rec, windows, positions, spec);
             if derive {
-                crate::derived::append_channels(&mut out, WINDOW);
+                pumptwin_data::derived::append_channels(&mut out, WINDOW);
             }
             out
         }
@@ -314,7 +318,7 @@ fn window_recording(
 }
 
 /// A recording holding the windows of `rec` starting at `starts` end to end (window
-/// `k` at `k·WINDOW`), with the derived nodes ([`crate::derived`]) computed from each
+/// `k` at `k·WINDOW`), with the derived nodes ([`pumptwin_data::derived`]) computed from each
 /// window's own samples if `derive`.
 pub fn windows_end_to_end(rec: &Recording, starts: &[usize], derive: bool) -> Recording {
     let mut out = Recording {
@@ -334,7 +338,7 @@ pub fn windows_end_to_end(rec: &Recording, starts: &[usize], derive: bool) -> Re
             .collect(),
     };
     if derive {
-        crate::derived::append_channels(&mut out, WINDOW);
+        pumptwin_data::derived::append_channels(&mut out, WINDOW);
     }
     out
 }
@@ -929,7 +933,7 @@ mod tests {
         // Same window samples, different history and future: same derived nodes.
         let a = windows_end_to_end(&rec(1.0), &[WINDOW], true);
         let b = windows_end_to_end(&rec(5.0), &[WINDOW], true);
-        for name in [crate::derived::TEMP, crate::derived::PRES] {
+        for name in [pumptwin_data::derived::TEMP, pumptwin_data::derived::PRES] {
             let (x, y) = (a.channel(name).unwrap(), b.channel(name).unwrap());
             assert_eq!(x.samples.len(), WINDOW);
             assert_eq!(x.samples, y.samples, "{name}");

@@ -1,4 +1,4 @@
-//! `pumptwin export`: post-training quantization of a trained burn DS-STGAT into the
+//! Post-training quantization (`pumptwin export`) of a trained burn DS-STGAT into the
 //! core's int8 network and the postcard model file, with the parity figures, the
 //! golden vectors and the model card written beside it.
 //!
@@ -21,7 +21,6 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use crate::data::record::sha256_hex;
 use anyhow::{bail, ensure, Context, Result};
 use burn::module::Module;
 use burn::tensor::{Device, Tensor};
@@ -35,6 +34,7 @@ use pumptwin_core::graph::{Adjacency, NodeMask};
 use pumptwin_core::model_file::{self, GraphParts, ModelFile, Name, Text};
 use pumptwin_core::quant::{AttentionPoolF32, GatLayerF32, GruCellF32, LinearF32};
 use pumptwin_core::simulator::BearingParams;
+use pumptwin_data::entry::sha256_hex;
 use serde::{Deserialize, Serialize};
 
 use crate::dataset::{
@@ -47,25 +47,19 @@ use crate::training::{Batch, TrainConfig};
 /// The arch name of the int8 model in reports.
 pub const ARCH_INT8: &str = "dsstgat-int8";
 
-/// `pumptwin export`: quantize a trained model into the postcard model file.
-#[derive(Debug, Clone, clap::Args)]
-pub struct ExportArgs {
-    /// The trained weights (`model.bpk`; `config.json` and `normalization.json` beside).
-    #[arg(long)]
+/// What to export and where: the trained weights (`config.json` and
+/// `normalization.json` beside them), the model file to write (its golden vectors and
+/// model card go beside it), the data directory for calibration (training side) and
+/// parity (test side), and how many golden windows to ship.
+#[derive(Debug, Clone)]
+pub struct ExportSpec {
+    /// The trained weights (`model.bpk`).
     pub model: PathBuf,
-    /// The model file to write (e.g. `models/dsstgat-cwru-time-block.ptm`); the golden
-    /// vectors and the model card go beside it (`.golden.json`, `.md`).
-    #[arg(long)]
+    /// The model file to write (`.ptm`); `.golden.json` and `.md` beside it.
     pub out: PathBuf,
-    /// Quantize to int8 (the model file holds the int8 network; this is the only
-    /// mode, the flag is accepted for scripts that spell it out).
-    #[arg(long, default_value_t = true)]
-    pub quantize: bool,
-    /// Data directory (MANIFEST.tsv) for calibration (training side) and parity (test side).
-    #[arg(long)]
+    /// Data directory (MANIFEST.tsv).
     pub data: PathBuf,
     /// Golden windows to ship with the model.
-    #[arg(long, default_value_t = 12)]
     pub golden: usize,
 }
 
@@ -475,12 +469,9 @@ fn name(s: &str) -> Result<Name> {
         .map_err(|_| anyhow::anyhow!("name {s:?} longer than {} bytes", model_file::NAME_LEN))
 }
 
-/// Run `pumptwin export`.
-pub fn run_export(args: &ExportArgs) -> Result<()> {
-    ensure!(
-        args.quantize,
-        "the model file holds the int8 network; the float model stays in model.bpk"
-    );
+/// Quantize the trained DS-STGAT `spec.model` into the int8 model file `spec.out`,
+/// with its golden vectors, parity figures and model card beside it.
+pub fn export_model(args: &ExportSpec) -> Result<()> {
     let (cfg, norms) = crate::training::load_trained_config(&args.model)?;
     let protocol = crate::training::parse_protocol(&cfg.protocol)?;
     if cfg.arch != crate::training::ARCH {
@@ -521,7 +512,7 @@ pub fn run_export(args: &ExportArgs) -> Result<()> {
 }
 
 fn export_with<const H: usize>(
-    args: &ExportArgs,
+    args: &ExportSpec,
     cfg: &TrainConfig,
     data: &ProtocolData,
     burn_model: &BurnDsStgat,
@@ -743,7 +734,7 @@ fn today() -> String {
 }
 
 fn model_card(
-    args: &ExportArgs,
+    args: &ExportSpec,
     cfg: &TrainConfig,
     data: &ProtocolData,
     p: &Parity,
@@ -847,7 +838,7 @@ fn model_card(
         p.max_reference_diff
     );
     let _ = writeln!(s, "\nGolden vectors: `{}` ({} windows; the int8 logit codes are exact, the burn logits within a relative tolerance of {}).", sibling(Path::new(&file), "golden.json").display(), args.golden.max(data.classes().len()), GOLDEN_RELATIVE_TOLERANCE);
-    let _ = writeln!(s, "\n## Reproduce\n\n```sh\ncargo run --release -p pumptwin-trainer --bin pumptwin -- train --data {} --protocol {} --out out/train-{} --seed {} --epochs {}\ncargo run --release -p pumptwin-trainer --bin pumptwin -- export --model out/train-{}/model.bpk --data {} --out {}\ncargo run --release -p pumptwin-trainer --bin pumptwin -- eval --model {} --data {} --protocol {} --out out/eval-int8\n```",
+    let _ = writeln!(s, "\n## Reproduce\n\n```sh\ncargo run --release -p pumptwin --bin pumptwin -- train --data {} --protocol {} --out out/train-{} --seed {} --epochs {}\ncargo run --release -p pumptwin --bin pumptwin -- export --model out/train-{}/model.bpk --data {} --out {}\ncargo run --release -p pumptwin --bin pumptwin -- eval --model {} --data {} --protocol {} --out out/eval-int8\n```",
         args.data.display(), data.protocol.name(), data.protocol.name(), cfg.seed, cfg.epochs,
         data.protocol.name(), args.data.display(), args.out.display(),
         args.out.display(), args.data.display(), data.protocol.name());

@@ -1,26 +1,24 @@
-//! pumptwin host side: data loading, windowing and splits, simulation, features,
-//! plots. Physics, features and graphs come from `pumptwin_core` (one source of truth
-//! shared with the edge and firmware); this crate orchestrates them on records.
+//! `pumptwin-trainer`: the DS-STGAT in burn and everything that learns or judges it —
+//! the network and its baselines, the dataset of featurized windows, the physics
+//! embedding (simulated priors and pre-training, the twin's Θ per record), training,
+//! metrics, figures, the comparison table, and the int8 export to the postcard model
+//! file.
+//!
+//! **Depends on** `pumptwin-core`, `pumptwin-data` and `pumptwin-twin` (never on the
+//! edge app: no SocketCAN, no MQTT in a training build). Physics, features and graphs
+//! come from `pumptwin_core` (one source of truth shared with the edge and firmware);
+//! records and windows from `pumptwin_data`; the closed loop's fit from `pumptwin_twin`.
 #![forbid(unsafe_code)]
 
 pub mod baselines;
-pub mod can_encode;
-pub mod cli;
 pub mod compare;
-pub mod data;
 pub mod dataset;
-pub mod derived;
 pub mod export;
-pub mod featurize;
 pub mod figures;
 pub mod metrics;
 pub mod model;
 pub mod physics;
-pub mod plot;
-pub mod predict;
-pub mod sim;
 pub mod training;
-pub mod twin;
 
 /// Tests that seed burn's device random stream (and draw from it: initialization,
 /// training) hold this lock: the stream is one per process, and two such tests running

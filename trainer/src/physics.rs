@@ -7,7 +7,7 @@
 //! ```text
 //! for each operating speed n of the training records, fault hypothesis h ∈ {none, OR, IR, B},
 //! and a few Θ around the initial values (natural frequency, impact force):
-//!     y_h,n,Θ = RK4 response of the 2-DOF model at DE, FE, BA   (crate::sim, eqs. 16–22)
+//!     y_h,n,Θ = RK4 response of the 2-DOF model at DE, FE, BA   (pumptwin_twin::sim, eqs. 16–22)
 //!     same preprocessing, windows and core features as the measured records
 //! s_time, s_freq  = the core's node features of those windows  (Table 3)
 //! s_space         = P_ij = mean over (h, n, Θ) of max(0, corr(log PSD_i, log PSD_j))
@@ -32,7 +32,7 @@
 //!
 //! # Θ_phys (eqs. 10, 23–24)
 //!
-//! The closed loop's fit (`crate::twin`, eq. 10 as Levenberg–Marquardt) is run on the
+//! The closed loop's fit (`pumptwin_twin`, eq. 10 as Levenberg–Marquardt) is run on the
 //! drive-end channel of each record, on training-side samples only, and gives
 //! `Θ = (ln k_r, ln c_r, ln A_impact, ln σ_meas)` ([`THETA_NAMES`]); `A_impact` is
 //! undefined for a record the loop calls healthy and is then left out of the loss.
@@ -48,12 +48,14 @@ use pumptwin_core::bearing::{BearingGeometry, DefectLocation};
 use pumptwin_core::fft::{power_spectrum, Complex32, Window};
 use pumptwin_core::graph::GraphConfig;
 
-use crate::data::preprocess::{preprocess, PreprocessConfig};
-use crate::data::windows::{Split, WindowRef};
 use crate::dataset::{Corpus, NODES, N_NODES};
-use crate::featurize::{feature_config, window_features, MaskCounts, WindowFeatures, WINDOW};
-use crate::sim::{simulate, SimulationSpec};
-use crate::twin::closed_loop::{run as run_loop, LoopConfig, LoopInput};
+use pumptwin_data::featurize::{
+    feature_config, window_features, MaskCounts, WindowFeatures, WINDOW,
+};
+use pumptwin_data::preprocess::{preprocess, PreprocessConfig};
+use pumptwin_data::windows::{Split, WindowRef};
+use pumptwin_twin::closed_loop::{run as run_loop, LoopConfig, LoopInput};
+use pumptwin_twin::sim::{simulate, SimulationSpec};
 
 /// Additive white measurement noise (std, g) of the simulated windows the network is
 /// pre-trained on.
@@ -179,13 +181,13 @@ impl PhysicsEmbedding<N_NODES> {
 impl<const N: usize> PhysicsEmbedding<N> {
     /// Simulate the hypotheses at the shaft speeds `rpms` (one set per distinct speed)
     /// and featurize them for the nodes `nodes` as the measured records are (derived
-    /// nodes, [`crate::derived`], from each simulated record's DE channel).
+    /// nodes, [`pumptwin_data::derived`], from each simulated record's DE channel).
     /// Deterministic for a seed.
     ///
     /// # Errors
     /// A simulation or preprocessing failure (they do not happen for these settings).
     pub fn build_for(rpms: &[f32], seed: u64, nodes: &[&'static str; N]) -> anyhow::Result<Self> {
-        let derive = crate::derived::any_derived(nodes);
+        let derive = pumptwin_data::derived::any_derived(nodes);
         let mut speeds: Vec<f32> = rpms.to_vec();
         speeds.sort_by(f32::total_cmp);
         speeds.dedup_by(|a, b| (*a - *b).abs() < 20.0);
@@ -220,7 +222,7 @@ impl<const N: usize> PhysicsEmbedding<N> {
                             // A simulated record is training-side only: derived over
                             // the whole record.
                             let len = rec.len();
-                            crate::derived::append_channels(&mut rec, len);
+                            pumptwin_data::derived::append_channels(&mut rec, len);
                         }
                         // s_space: spectral correlation between the nodes.
                         let psd: Vec<Vec<f32>> = nodes
@@ -475,8 +477,8 @@ pub fn response_mse(
     mean: &[f32; N_THETA],
     std: &[f32; N_THETA],
 ) -> Option<f64> {
-    use crate::twin::model::{OperatingPoint, TwinModel};
-    use crate::twin::signature::{error_figures, Signature, SignatureConfig};
+    use pumptwin_twin::model::{OperatingPoint, TwinModel};
+    use pumptwin_twin::signature::{error_figures, Signature, SignatureConfig};
     let mut per_record: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
     for (k, (w, _)) in test.iter().enumerate() {
         per_record.entry(w.record).or_default().push(k);
@@ -550,7 +552,7 @@ mod tests {
 
     #[test]
     fn theta_fits_see_no_test_sample() {
-        use crate::data::windows::Protocol;
+        use pumptwin_data::windows::Protocol;
         let w = |record: usize, start: usize| {
             (
                 WindowRef {

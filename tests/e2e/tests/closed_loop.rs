@@ -10,12 +10,10 @@
 //! - clean control: no effect claimed, and the residual is noise-like.
 
 use pumptwin_core::bearing::BearingGeometry;
-use pumptwin_trainer::sim::{simulate, SimulationSpec};
-use pumptwin_trainer::twin::closed_loop::{
-    note_clipping, run, LoopConfig, LoopInput, LoopReport, LoopStep,
-};
-use pumptwin_trainer::twin::generate::{generate, Injected, Strength, FS_HZ, RPM};
-use pumptwin_trainer::twin::model::Effect;
+use pumptwin_twin::closed_loop::{note_clipping, run, LoopConfig, LoopInput, LoopReport, LoopStep};
+use pumptwin_twin::generate::{generate, Injected, Strength, FS_HZ, RPM};
+use pumptwin_twin::model::Effect;
+use pumptwin_twin::sim::{simulate, SimulationSpec};
 
 /// The loop on `signal`, told what the generator's records are (12 kHz, 1797 rpm, the
 /// 6205 drive-end bearing).
@@ -548,8 +546,8 @@ fn two_undeclared_tones_are_both_found() {
 /// undeclared mains family is still found.
 #[test]
 fn a_short_snapshot_at_a_low_rate_is_fitted() {
-    use pumptwin_trainer::data::preprocess::{preprocess, PreprocessConfig};
-    use pumptwin_trainer::data::record::{Channel, Recording};
+    use pumptwin_data::preprocess::{preprocess, PreprocessConfig};
+    use pumptwin_data::record::{Channel, Recording};
     let x = generate(Injected::LineInterference, Strength::Realistic, 1.2, 21).expect("generator");
     let rec = Recording {
         name: "snapshot".into(),
@@ -764,8 +762,8 @@ fn a_clipped_record_is_named_clipped() {
 /// 437.3 Hz, each at a tenth to 15 % of the record's RMS, are each found by name.
 #[test]
 fn effects_added_to_a_measured_record_are_found() {
-    use pumptwin_trainer::data::preprocess::{preprocess, PreprocessConfig};
-    use pumptwin_trainer::data::record::load_recording;
+    use pumptwin_data::preprocess::{preprocess, PreprocessConfig};
+    use pumptwin_data::record::load_recording;
     let Some(dir) = pumptwin_e2e::cwru_dir() else {
         eprintln!("skipped: no CWRU data at ../shared/data/cwru");
         return;
@@ -847,7 +845,7 @@ fn a_loop_run_writes_its_report_plots_and_spectra() {
     };
     let (report, artifacts) = run(&input, &LoopConfig::default()).expect("loop");
     let dir = std::env::temp_dir().join(format!("pumptwin-loop-files-{}", std::process::id()));
-    pumptwin_trainer::twin::report::write(&dir, &report, &artifacts, &[]).expect("write");
+    pumptwin_twin::report::write(&dir, &report, &artifacts, &[]).expect("write");
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).expect("json"))
             .expect("parses");

@@ -7,7 +7,7 @@
 use pumptwin_core::bearing::BearingGeometry;
 use pumptwin_core::features::{envelope_spectrum, peak_frequency, EnvelopeBand};
 use pumptwin_core::fft::Complex32;
-use pumptwin_trainer::data::record::load_recording;
+use pumptwin_data::record::load_recording;
 
 /// Welch-averaged envelope spectrum of the DE channel over 16384-sample blocks.
 fn de_envelope_peak(file: &str) -> Option<(f32, f32)> {

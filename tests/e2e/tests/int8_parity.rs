@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 use burn::module::Module;
 use burn::tensor::Device;
-use pumptwin_trainer::data::windows::Protocol;
+use pumptwin_data::windows::Protocol;
 use pumptwin_trainer::dataset::NODES;
 use pumptwin_trainer::export::{burn_logits, int8_outputs, load_model_file};
 use pumptwin_trainer::training::{load_protocol, load_trained_config};

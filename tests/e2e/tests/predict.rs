@@ -8,8 +8,8 @@
 
 use std::path::{Path, PathBuf};
 
-use pumptwin_trainer::cli::RecordArgs;
-use pumptwin_trainer::predict::{run_predict, PredictArgs};
+use pumptwin::commands::RecordArgs;
+use pumptwin::predict::{run_predict, PredictArgs};
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")

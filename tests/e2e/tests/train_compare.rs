@@ -9,12 +9,14 @@
 
 use std::path::{Path, PathBuf};
 
-use pumptwin_trainer::cli::RecordArgs;
-use pumptwin_trainer::compare::{run_compare, CompareArgs};
-use pumptwin_trainer::data::windows::Protocol;
+use pumptwin::commands::RecordArgs;
+use pumptwin::compare::{run_compare, CompareArgs};
+use pumptwin::eval::{run_eval, EvalArgs};
+use pumptwin::predict::{run_predict, PredictArgs};
+use pumptwin::train::{run_train, TrainArgs};
+use pumptwin_data::windows::Protocol;
 use pumptwin_trainer::dataset::NodeSet;
-use pumptwin_trainer::predict::{run_predict, PredictArgs};
-use pumptwin_trainer::training::{run_eval, run_train, Ablation, Arch, EvalArgs, TrainArgs};
+use pumptwin_trainer::training::{Ablation, Arch};
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")

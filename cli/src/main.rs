@@ -1,0 +1,123 @@
+//! `pumptwin`: the host-side command line. A thin layer: each subcommand parses its
+//! flags and calls the library.
+use std::path::PathBuf;
+
+use anyhow::Context;
+use clap::{Args, Parser, Subcommand};
+use pumptwin::can_encode::{run_can_encode, CanEncodeArgs};
+use pumptwin::commands::{
+    is_broken_pipe, run_features, run_simulate, run_twin, FeaturesArgs, SimulateArgs, TwinCmd,
+};
+use pumptwin::compare::{run_compare, CompareArgs};
+use pumptwin::eval::{run_eval, EvalArgs};
+use pumptwin::export::{run_export, ExportArgs};
+use pumptwin::predict::{run_predict, PredictArgs};
+use pumptwin::train::{run_train, TrainArgs};
+use pumptwin_data::preprocess::{PreprocessConfig, MODEL_FS_HZ};
+use pumptwin_data::summary::summarize;
+use pumptwin_data::windows::{Protocol, WindowConfig, DEFAULT_HOP, DEFAULT_WINDOW_LEN};
+use std::io::Write;
+
+/// Physics-informed bearing fault diagnosis: data, training, evaluation, export.
+#[derive(Debug, Parser)]
+#[command(name = "pumptwin", version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+/// Top-level subcommands.
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Inspect data sets.
+    #[command(subcommand)]
+    Data(DataCmd),
+    /// Simulate a multi-node record with the 2-DOF bearing model (CSV + PNG plots).
+    Simulate(SimulateArgs),
+    /// Print (or write) the core's node features and dynamic graphs of a record.
+    Features(FeaturesArgs),
+    /// The closed loop between measurement and the bearing model.
+    #[command(subcommand)]
+    Twin(TwinCmd),
+    /// Train the DS-STGAT on a protocol's split and evaluate it (writes config.json,
+    /// model.bpk, metrics.json).
+    Train(TrainArgs),
+    /// Evaluate a trained DS-STGAT (burn `model.bpk` or int8 model file) on a
+    /// protocol's test side (metrics.json).
+    Eval(EvalArgs),
+    /// Quantize a trained DS-STGAT to int8 and write the postcard model file, its
+    /// golden vectors, parity figures and model card.
+    Export(ExportArgs),
+    /// Turn recordings into a candump log packed as an edge sensor map says.
+    CanEncode(CanEncodeArgs),
+    /// Diagnose one recording: per-window class and probabilities, majority class.
+    Predict(PredictArgs),
+    /// Train (where missing) and tabulate the DS-STGAT, its ablations and the baselines
+    /// on every protocol (markdown + JSON table, radar and ablation charts).
+    Compare(CompareArgs),
+}
+
+/// `pumptwin data …`
+#[derive(Debug, Subcommand)]
+enum DataCmd {
+    /// Records, windows and split sizes of a data directory with a MANIFEST.tsv.
+    Summary(SummaryArgs),
+}
+
+#[derive(Debug, Args)]
+struct SummaryArgs {
+    /// Data directory holding MANIFEST.tsv (e.g. the CWRU set).
+    #[arg(long)]
+    data: PathBuf,
+    /// Show only this protocol's split (default: all).
+    #[arg(long, value_enum)]
+    protocol: Option<Protocol>,
+    /// Model sampling rate in Hz.
+    #[arg(long, default_value_t = MODEL_FS_HZ)]
+    model_fs: f32,
+    /// Window length in samples at the model rate.
+    #[arg(long, default_value_t = DEFAULT_WINDOW_LEN)]
+    window: usize,
+    /// Hop between windows in samples.
+    #[arg(long, default_value_t = DEFAULT_HOP)]
+    hop: usize,
+}
+
+fn data_summary(args: &SummaryArgs) -> anyhow::Result<()> {
+    let protocols: Vec<Protocol> = match args.protocol {
+        Some(p) => vec![p],
+        None => Protocol::ALL.to_vec(),
+    };
+    let preprocess = PreprocessConfig {
+        target_fs_hz: args.model_fs,
+        ..PreprocessConfig::default()
+    };
+    let windows = WindowConfig {
+        len: args.window,
+        hop: args.hop,
+    };
+    let summary = summarize(&args.data, &protocols, &preprocess, &windows)
+        .with_context(|| format!("cannot summarize {}", args.data.display()))?;
+    write!(std::io::stdout().lock(), "{summary}")?;
+    Ok(())
+}
+
+fn main() -> anyhow::Result<()> {
+    let cli = Cli::parse();
+    let result = match &cli.command {
+        Command::Data(DataCmd::Summary(args)) => data_summary(args),
+        Command::Simulate(args) => run_simulate(args),
+        Command::Features(args) => run_features(args),
+        Command::Twin(cmd) => run_twin(cmd),
+        Command::Train(args) => run_train(args),
+        Command::Eval(args) => run_eval(args),
+        Command::Export(args) => run_export(args),
+        Command::CanEncode(args) => run_can_encode(args),
+        Command::Predict(args) => run_predict(args),
+        Command::Compare(args) => run_compare(args),
+    };
+    match result {
+        Err(e) if is_broken_pipe(&e) => Ok(()),
+        other => other,
+    }
+}

@@ -1,0 +1,368 @@
+//! `pumptwin predict`: diagnose one recording with any model the project makes (the
+//! int8 model file through the core, or a burn `model.bpk`).
+//!
+//! ```text
+//! FILE (.mat / .csv) → channels DE, FE, BA by name (.mat variables by channel suffix)
+//!   → model rate (12 kHz): integer-ratio rates anti-aliased and decimated, other
+//!     rates (25.6, 44.1, 64, 97.656 kHz, ...) resampled by the same windowed sinc,
+//!     the common 5 kHz band limit (data::preprocess, as in training); a speed whose
+//!     defect lines the envelope cannot read refused (FeatureConfig::check_speed)
+//!   → columns named DE/FE/BA in any case or as a token (`de`, `X105_DE_time`)
+//!   → windows 2048 / hop 1024 → core features; a channel the file lacks is masked
+//!   → the model's normalization → dynamic graphs (core, eqs. 1–3) → model
+//!   → per-window class and probabilities, the record's majority class; a window
+//!     with no usable sensor is `no_signal`, counted and left out of the majority
+//! ```
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use burn::tensor::activation::softmax;
+use burn::tensor::Device;
+use pumptwin_core::dsstgat::{probabilities_into, Output};
+use serde::Serialize;
+
+use crate::commands::{LoadedRecord, RecordArgs};
+use pumptwin_data::featurize::{
+    feature_config, window_features, window_graphs, MaskCounts, WINDOW,
+};
+use pumptwin_trainer::dataset::{
+    copy_window_samples, windows_end_to_end, Dataset, NodeSet, DERIVED_NODES, NODES, N_INDICATORS,
+};
+use pumptwin_trainer::export::{is_model_file, load_model_file, ARCH_INT8};
+use pumptwin_trainer::training::{load_trained_config, Batch, BatchParts, Network};
+
+/// The model `predict` runs.
+// One per command; boxing the burn network would only add indirection.
+#[allow(clippy::large_enum_variant)]
+enum PredictModel {
+    /// An int8 model file, through the core.
+    Int8(pumptwin_trainer::export::LoadedModel),
+    /// A burn model (any architecture) with its config and normalization.
+    Burn {
+        cfg: pumptwin_trainer::training::TrainConfig,
+        norm: pumptwin_core::features::FeatureNorm,
+        net: Network,
+    },
+}
+
+/// The class of a window with no usable sensor.
+pub const NO_SIGNAL: &str = "no_signal";
+
+/// Samples between window starts: the core's layout, as on the edge.
+pub use pumptwin_core::layout::HOP;
+
+/// `pumptwin predict`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct PredictArgs {
+    /// The recording.
+    #[command(flatten)]
+    pub record: RecordArgs,
+    /// The model: an int8 model file (`.ptm`) or a burn `model.bpk` (with its
+    /// `config.json` and `normalization.json` beside it).
+    #[arg(long)]
+    pub model: PathBuf,
+    /// Write the JSON report here (default: standard output).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// One window's diagnosis.
+#[derive(Debug, Clone, Serialize)]
+pub struct WindowPrediction {
+    /// Window start in the recording at the model rate, s.
+    pub start_s: f64,
+    /// Predicted class.
+    pub class: String,
+    /// Class probabilities, in the model's class order.
+    pub probabilities: BTreeMap<String, f32>,
+    /// Nodes masked in this window.
+    pub masked_nodes: Vec<String>,
+}
+
+/// The report of `predict`.
+#[derive(Debug, Clone, Serialize)]
+pub struct Prediction {
+    /// The recording.
+    pub input: String,
+    /// The model file.
+    pub model: String,
+    /// `dsstgat-int8` or `dsstgat`.
+    pub arch: String,
+    /// The recording's sampling rate, Hz.
+    pub fs_hz_input: f32,
+    /// The model's rate, Hz.
+    pub fs_hz_model: f32,
+    /// Whether the recording was resampled (anti-aliased and decimated).
+    pub resampled: bool,
+    /// Model sensors the recording does not have (masked in every window).
+    pub missing_nodes: Vec<String>,
+    /// Windows with no usable sensor: class [`NO_SIGNAL`], no probabilities, left
+    /// out of the majority.
+    pub no_signal_windows: usize,
+    /// Samples at the model rate after the last whole window (less than a hop: not
+    /// diagnosed, said rather than dropped in silence).
+    pub samples_after_last_window: usize,
+    /// Per window.
+    pub windows: Vec<WindowPrediction>,
+    /// The most frequent class over the diagnosed windows.
+    pub majority_class: String,
+    /// Windows per class.
+    pub class_counts: BTreeMap<String, usize>,
+}
+
+/// Run `pumptwin predict`.
+pub fn run_predict(args: &PredictArgs) -> Result<()> {
+    pumptwin_trainer::export::check_model_path(&args.model)?;
+    let LoadedRecord {
+        raw,
+        rec,
+        rpm,
+        bearing,
+    } = args.record.load()?;
+    let cfg = feature_config(rec.fs_hz, rpm / 60.0, bearing.orders());
+    let starts: Vec<usize> = (0..)
+        .map(|k| k * HOP)
+        .take_while(|s| s + WINDOW <= rec.len())
+        .collect();
+    anyhow::ensure!(
+        !starts.is_empty(),
+        "{}: {} samples at {} Hz is shorter than one window ({WINDOW})",
+        args.record.input.display(),
+        rec.len(),
+        rec.fs_hz
+    );
+    // Model-specific normalization, graph and forward. A burn model's config (classes,
+    // graph, architecture, nodes) is read once and its network loaded in inference mode
+    // (batch norm on its running statistics, no dropout).
+    let device = Device::flex();
+    let model = if is_model_file(&args.model) {
+        PredictModel::Int8(load_model_file(&args.model)?)
+    } else {
+        let (cfg, norms) = load_trained_config(&args.model)?;
+        let (norm, _) = norms.context("no normalization.json beside the burn model")?;
+        let net = Network::init(&cfg, cfg.classes.len(), &device)?
+            .load(&args.model)?
+            .valid()
+            .with_line_vote(&norm, &cfg.classes)?;
+        PredictModel::Burn { cfg, norm, net }
+    };
+    let input = Input {
+        args,
+        fs_hz_input: raw.fs_hz,
+        rec: &rec,
+        cfg: &cfg,
+        starts: &starts,
+    };
+    match &model {
+        PredictModel::Burn { cfg, .. } if cfg.node_set()? == NodeSet::Derived => {
+            predict_with(&input, &model, &device, DERIVED_NODES)
+        }
+        _ => predict_with(&input, &model, &device, NODES),
+    }
+}
+
+/// The recording and its windows, as `predict` prepared them.
+struct Input<'a> {
+    args: &'a PredictArgs,
+    fs_hz_input: f32,
+    rec: &'a pumptwin_data::record::Recording,
+    cfg: &'a pumptwin_core::features::FeatureConfig,
+    starts: &'a [usize],
+}
+
+/// `predict` for a model whose nodes are `nodes`.
+fn predict_with<const N: usize>(
+    input: &Input<'_>,
+    model: &PredictModel,
+    device: &Device,
+    nodes: [&'static str; N],
+) -> Result<()> {
+    let Input {
+        args,
+        fs_hz_input,
+        rec,
+        cfg,
+        starts,
+    } = *input;
+    // Derived nodes come from each window's own samples: the windows end to end.
+    let derive = pumptwin_data::derived::any_derived(&nodes);
+    let scratch;
+    let (src, src_starts): (&pumptwin_data::record::Recording, Vec<usize>) = if derive {
+        scratch = windows_end_to_end(rec, starts, true);
+        (&scratch, (0..starts.len()).map(|k| k * WINDOW).collect())
+    } else {
+        (rec, starts.to_vec())
+    };
+    let mut counts = MaskCounts::default();
+    let mut wf = window_features(src, &nodes, cfg, &src_starts, &mut counts);
+    for (w, &s) in wf.iter_mut().zip(starts) {
+        w.start = s;
+    }
+    let missing: Vec<String> = nodes
+        .iter()
+        .filter(|n| src.channel(n).is_none())
+        .map(|n| (*n).to_string())
+        .collect();
+    crate::commands::ensure_a_node_channel(src, &nodes, &args.record.input)?;
+    // A window with no usable sensor (every channel missing, dead or non-finite
+    // there) has nothing to diagnose: it is reported as `no_signal`, counted, and
+    // left out of the model and the majority, never given a class.
+    let usable: Vec<bool> = wf.iter().map(|w| w.mask.0.iter().any(|&m| m)).collect();
+    let no_signal = usable.iter().filter(|&&u| !u).count();
+    anyhow::ensure!(
+        no_signal < wf.len(),
+        "{}: no window has a usable sensor ({} windows; masked node-windows: {} missing \
+         channel, {} dead or non-finite signal)",
+        args.record.input.display(),
+        wf.len(),
+        counts.missing_channel,
+        counts.rejected_signal
+    );
+    let (classes, norm, graph) = match model {
+        PredictModel::Int8(m) => {
+            let (norm, _) = m.norms()?;
+            (m.classes(), norm, m.file.graph_config::<N>()?)
+        }
+        PredictModel::Burn { cfg, norm, .. } => (cfg.classes.clone(), *norm, cfg.graph_config()),
+    };
+    // The raw samples too, for a raw-signal baseline.
+    let with_raw = matches!(model, PredictModel::Burn { net, .. } if net.raw());
+    let mut ds = Dataset::new(N);
+    for (k, w) in wf.iter().enumerate().filter(|&(k, _)| usable[k]) {
+        let (x, a) = window_graphs(w, &norm, &graph)
+            .map_err(|e| anyhow::anyhow!("window at sample {}: {e}", w.start))?;
+        ds.push(&x, &a, &w.mask.0, &[0.0; N_INDICATORS], 0, 0);
+        if with_raw {
+            let o = ds.raw.len();
+            ds.raw.resize(o + ds.raw_per_window(), 0.0);
+            copy_window_samples(src, &nodes, src_starts[k], &mut ds.raw[o..]);
+        }
+    }
+    let probs: Vec<Vec<f32>> = match model {
+        PredictModel::Int8(m) => {
+            let outs: Vec<Output<16, 8>> = pumptwin_trainer::export::int8_outputs(&m.model, &ds)?;
+            let c = m.model.classes();
+            outs.iter()
+                .map(|o| {
+                    let mut p = vec![0.0f32; c];
+                    probabilities_into(&o.logits[..c], m.model.logit_scale(), &mut p);
+                    p
+                })
+                .collect()
+        }
+        PredictModel::Burn { net, .. } => {
+            let parts = BatchParts {
+                raw: with_raw,
+                physics: false,
+            };
+            let idx: Vec<usize> = (0..ds.len()).collect();
+            let mut out = Vec::with_capacity(ds.len());
+            for chunk in idx.chunks(256) {
+                let b = Batch::with_parts(&ds, chunk, parts, device);
+                let p = softmax(net.output(&b).logits, 1);
+                let v = p
+                    .into_data()
+                    .try_into_vec::<f32>()
+                    .map_err(|e| anyhow::anyhow!("{e:?}"))?;
+                out.extend(v.chunks(classes.len()).map(<[f32]>::to_vec));
+            }
+            out
+        }
+    };
+    let mut windows = Vec::with_capacity(wf.len());
+    let mut class_counts: BTreeMap<String, usize> = BTreeMap::new();
+    let mut probs = probs.iter();
+    for (w, &ok) in wf.iter().zip(&usable) {
+        // The diagnosed windows' probabilities come in window order.
+        let (class, probabilities) = match ok.then(|| probs.next()).flatten() {
+            Some(p) => {
+                let best = (0..p.len()).fold(0, |b, c| if p[c] > p[b] { c } else { b });
+                let class = classes.get(best).cloned().unwrap_or_default();
+                *class_counts.entry(class.clone()).or_default() += 1;
+                (
+                    class,
+                    classes.iter().cloned().zip(p.iter().copied()).collect(),
+                )
+            }
+            _ => (NO_SIGNAL.to_string(), BTreeMap::new()),
+        };
+        windows.push(WindowPrediction {
+            start_s: w.start as f64 / f64::from(rec.fs_hz),
+            class,
+            probabilities,
+            masked_nodes: nodes
+                .iter()
+                .zip(w.mask.0)
+                .filter(|(_, m)| !m)
+                .map(|(n, _)| (*n).to_string())
+                .collect(),
+        });
+    }
+    let majority_class = class_counts
+        .iter()
+        .max_by_key(|(_, n)| **n)
+        .map(|(c, _)| c.clone())
+        .unwrap_or_default();
+    let report = Prediction {
+        input: args.record.input.display().to_string(),
+        model: args.model.display().to_string(),
+        arch: match model {
+            PredictModel::Int8(_) => ARCH_INT8.to_string(),
+            PredictModel::Burn { cfg, .. } => cfg.report_name(),
+        },
+        fs_hz_input,
+        fs_hz_model: rec.fs_hz,
+        resampled: (fs_hz_input - rec.fs_hz).abs() > 1e-3,
+        missing_nodes: missing,
+        no_signal_windows: no_signal,
+        samples_after_last_window: starts.last().map_or(0, |s| rec.len() - (s + WINDOW)),
+        windows,
+        majority_class,
+        class_counts,
+    };
+    let text = serde_json::to_string_pretty(&report)? + "\n";
+    match &args.out {
+        Some(path) => std::fs::write(path, &text)
+            .with_context(|| format!("cannot write {}", path.display()))?,
+        None => {
+            use std::io::Write;
+            std::io::stdout().lock().write_all(text.as_bytes())?;
+        }
+    }
+    eprintln!(
+        "{}: {} windows at {} Hz{}; majority class {} ({} of {}){}{}",
+        report.input,
+        report.windows.len(),
+        report.fs_hz_model,
+        if report.resampled {
+            format!(" (resampled from {} Hz)", report.fs_hz_input)
+        } else {
+            String::new()
+        },
+        report.majority_class,
+        report
+            .class_counts
+            .get(&report.majority_class)
+            .unwrap_or(&0),
+        report.windows.len() - report.no_signal_windows,
+        if report.no_signal_windows > 0 {
+            format!(
+                "; {} windows with no usable sensor (no_signal, not diagnosed)",
+                report.no_signal_windows
+            )
+        } else {
+            String::new()
+        },
+        if report.missing_nodes.is_empty() {
+            String::new()
+        } else {
+            format!(
+                "; nodes {:?} not in the recording: masked",
+                report.missing_nodes
+            )
+        }
+    );
+    Ok(())
+}

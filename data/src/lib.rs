@@ -1,0 +1,50 @@
+//! `pumptwin-data`: measured data, from files to labelled windows and the core's
+//! features.
+//!
+//! **Depends on** `pumptwin-core` only (and small parsing crates). **Invariant:** no
+//! burn, no plotting, no network: every reader here is pure and fuzzed (`fuzz/`), and
+//! the twin, the trainer, the command line and the fuzz targets read data through
+//! this crate alone.
+//!
+//! | module | what |
+//! |---|---|
+//! | [`mat`] | MATLAB level-5 `.mat` reader (CWRU files) |
+//! | [`csv`] | CSV recordings (header of channel names, one column per channel) |
+//! | [`recording`] | [`Recording`]/[`Channel`] and the checks every consumer relies on |
+//! | [`record`] | the CWRU and CSV loaders, [`load_recording`] |
+//! | [`entry`] | a manifest entry → its recording (checksum, file number, rate) |
+//! | [`manifest`] | `MANIFEST.tsv`: labels, loads, speeds, sampling rates; class names |
+//! | [`preprocess`](mod@preprocess) | to the model rate (anti-alias + decimation) with one common band limit |
+//! | [`windows`] | windows and the leakage-free `time-block`, `cross-load`, `fault-size` splits |
+//! | [`summary`] | what `pumptwin data summary` prints |
+//! | [`featurize`] | records → windows → the core's node features and dynamic graphs |
+//! | [`derived`] | the paper's derived temperature and pressure nodes (§6.2) |
+//!
+//! The order of work: load a [`Recording`] at its own rate, [`preprocess()`] it to the
+//! model rate, cut [`windows::WindowRef`]s, and let a [`windows::Split`] say which
+//! windows train and which test.
+#![forbid(unsafe_code)]
+
+pub mod csv;
+pub mod derived;
+pub mod entry;
+pub mod featurize;
+pub mod manifest;
+pub mod mat;
+pub mod preprocess;
+pub mod record;
+pub mod recording;
+pub mod summary;
+#[cfg(test)]
+mod test_support;
+pub mod windows;
+
+pub use manifest::{
+    read_manifest, ClassScheme, FaultType, ManifestEntry, CLASSES_10, FAULT_TYPE_CLASSES,
+};
+pub use mat::{read_mat, read_mat_file, MatError, MatFile, MatVariable};
+pub use preprocess::{preprocess, PreprocessConfig, PreprocessError};
+pub use record::{load_recording, DataError};
+pub use recording::{Channel, Recording};
+pub use summary::{summarize, DataSummary, SummaryError};
+pub use windows::{build_split, Protocol, Split, SplitError, WindowConfig, WindowRef};

@@ -1,0 +1,32 @@
+//! `pumptwin-twin`: the digital twin of the bearing. Multi-node simulation and the
+//! closed loop between measurement and mechanism model (paper §4.3, eq. 10; §5.4):
+//! fit the simulator to a record, find the residual, trace it to an effect the model
+//! lacks, add the effect, refit, report the error before and after, repeat.
+//!
+//! | module | step |
+//! |---|---|
+//! | [`signature`] | phase-free comparison domains and error figures |
+//! | [`model`] | the parametric twin and its effects |
+//! | [`fit`] | eq. 10 as Levenberg–Marquardt with common random numbers |
+//! | [`residual`] | significant residual components and their tracing to effects |
+//! | [`closed_loop`] | the loop itself and its report |
+//! | [`generate`] | records with undeclared effects, for tests |
+//! | [`report`] | `report.json` and the PNG plots |
+//! | [`sim`] | multi-node records from the core's 2-DOF model (DE, FE, BA) |
+//! | [`plot`] | line plots (PNG) shared with the trainer's figures |
+//!
+//! **Depends on** `pumptwin-core` and `pumptwin-data`. **Invariant:** no burn (the
+//! twin builds and tests without the learning stack: `cargo tree -p pumptwin-twin`
+//! names no burn crate), no network.
+
+#![forbid(unsafe_code)]
+
+pub mod closed_loop;
+pub mod fit;
+pub mod generate;
+pub mod model;
+pub mod plot;
+pub mod report;
+pub mod residual;
+pub mod signature;
+pub mod sim;

@@ -1,0 +1,1169 @@
+//! The twin's parametric model: the core's 2-DOF bearing simulator (eqs. 16–22) with
+//! the eq. 18–20 excitation, plus the effects the loop may add. Every parameter lives
+//! in an unconstrained coordinate (log for positive quantities, logit for depths) so
+//! Gauss–Newton steps (eq. 10) can never produce an unphysical model.
+//!
+//! ```text
+//! base Θ:  f_n (k_r = m(2πf_n)²), ζ (c_r = 2ζm·2πf_n), A_impact, rate factor (slip of the
+//!          mean defect rate), background force σ_F, measurement noise σ_y
+//! y(t) = [ẍ_r(t) + ẍ_θ(t)] / g   (+ output-side terms)   → anti-alias, decimate to fs
+//! ```
+//!
+//! Effects, each a term the base model lacks (what it adds, and its parameters):
+//!
+//! | effect | term | parameters |
+//! |---|---|---|
+//! | `shaft_harmonics` | eq. 19 sinusoids at k·f_r in the force | ln A_k per order |
+//! | `half_orders` | eq. 19 sinusoids at (k + ½)·f_r in the force: a loose mount or a rub, the rotor lifting or striking once every two turns | ln A per half order |
+//! | `shaft_order_tones` | output-side sinusoids at k·f_r: a tone that reaches the sensor by another path than the bearing's contact (a pump's vane pass, a coupling's or gear's mesh), so it loads no rolling element | ln A_k per order |
+//! | `load_zone_modulation` | impact amplitude × (1 − δ + δ(1 + cos 2πf_mod t)/2) | logit δ |
+//! | `slip` | random impact timing, σ = jitter·T | ln jitter |
+//! | `speed_drift` | rate × (1 + d·t) for impacts and shaft terms | d |
+//! | `extra_resonance` | the angular DOF as a second mode driven by the same force | ln f₂, ln ζ₂, ln share |
+//! | `nonlinear_stiffness` | k_NL = ρ·k_r / (1 µm)² (eq. 17) | ln ρ |
+//! | `line_interference` | output-side sinusoids at electrical lines | ln A per line |
+//! | `unexplained_periodic` | an output-side sinusoid at f | ln A |
+//! | `unexplained_band` | output-side band-limited noise (2nd-order resonator) at f, bandwidth B | ln level |
+//! | `second_impact_train` | a second impact train in the force at its own rate (a second defect, a rub, a struck part): same structure, its own level; a second inner-race or ball defect modulated by its load zone (shaft or cage rate) | ln A₂, logit δ₂ (inner race, ball) |
+
+use crate::sim::G;
+use pumptwin_core::bearing::{DefectFrequencies, DefectLocation};
+use pumptwin_core::excitation::{
+    CompositeExcitation, ImpactTrain, RandomExcitation, ShaftSinusoid, TimeGrid,
+};
+use pumptwin_core::fir::{decimated_len, design_lowpass, filter_decimate, BAND_LIMIT_HZ};
+use pumptwin_core::rng::Xoshiro128pp;
+use pumptwin_core::simulator::{Bearing2Dof, BearingParams, State};
+
+/// Warm-up simulated before each render and dropped, s.
+const WARMUP_S: f64 = 0.1;
+
+/// RK4 steps per output sample in the twin (48 kHz at 12 kHz): ω·h = 0.39 at 3 kHz,
+/// where RK4 is within 0.3 % of the exact response (`benches/rk4_reference.py
+/// --convergence`), 0.01 dB in a spectrum: ample for fitting, at half the cost of 96 kHz.
+pub const OVERSAMPLE: usize = 4;
+/// Impact width σ, s (broadband to ≈ 8 kHz, beyond the band limit).
+pub const IMPACT_SIGMA_S: f64 = 2.0e-5;
+/// Reference displacement for the cubic stiffness parameter, m.
+const X_REF_M: f64 = 1.0e-6;
+
+/// An effect the loop can add to the model.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[serde(tag = "effect", rename_all = "snake_case")]
+pub enum Effect {
+    /// Force sinusoids at these shaft orders.
+    ShaftHarmonics {
+        /// Orders k of k·f_r.
+        orders: Vec<u32>,
+    },
+    /// Force sinusoids at half orders of the shaft rate (0.5×, 1.5×, 2.5×, …): mechanical
+    /// looseness of the bearing's seat or mount, or a rub — the rotor lifts and settles,
+    /// or strikes, once every two turns, so the force repeats every second turn. It
+    /// acts through the bearing, like [`Effect::ShaftHarmonics`].
+    HalfOrders {
+        /// Orders k + ½ of (k + ½)·f_r.
+        orders: Vec<f64>,
+    },
+    /// Output-side sinusoids at these shaft orders: tones locked to the shaft that reach
+    /// the sensor by another path than the bearing's rolling contact (a pump impeller's
+    /// vane pass, a coupling's or a gear's mesh), so they do not load the rolling
+    /// elements and leave the impacts unmodulated. The force-side
+    /// [`Effect::ShaftHarmonics`] puts a large low-order force through the contact's
+    /// Hertzian stiffness and modulates the impacts at its rate; a measurement whose
+    /// envelope carries no such modulation rejects it, and these tones are the
+    /// alternative the loop then tries.
+    ShaftOrderTones {
+        /// Orders k of k·f_r.
+        orders: Vec<u32>,
+    },
+    /// Amplitude modulation of the impacts at `mod_hz`.
+    LoadZoneModulation {
+        /// Modulation frequency, Hz (shaft rate for inner race, cage rate for balls).
+        mod_hz: f64,
+    },
+    /// Random impact timing.
+    Slip,
+    /// Linear speed drift over the record.
+    SpeedDrift {
+        /// Starting value of the drift (fraction per second), from the evidence.
+        initial_per_s: f64,
+        /// Starting mean-rate factor (`mean rate / kinematic − 1`), from the evidence.
+        initial_rate_factor: f64,
+    },
+    /// A second structural mode near `f_hz`.
+    ExtraResonance {
+        /// Initial natural frequency, Hz.
+        f_hz: f64,
+    },
+    /// Cubic (hardening) stiffness.
+    NonlinearStiffness {
+        /// Measured excess of the ring-down start frequency over its end (fraction).
+        initial_rel_shift: f64,
+    },
+    /// Electrical lines at these frequencies (output side).
+    LineInterference {
+        /// Line frequencies, Hz.
+        freqs: Vec<f64>,
+    },
+    /// An output-side sinusoid nobody declared.
+    UnexplainedPeriodic {
+        /// Frequency, Hz.
+        f_hz: f64,
+        /// `f_hz / f_r`.
+        order: f64,
+    },
+    /// A second train of impacts in the radial force at `rate_hz`: a compound fault
+    /// (the bearing's other defect rates), impacts once per turn (a rub) or from a
+    /// source the bearing's kinematics do not name. It excites the same structure as
+    /// the modelled defect, so it is a force term, not an output-side one.
+    SecondImpactTrain {
+        /// Impact rate, Hz (from the residual's envelope lines, refined on the PSD comb).
+        rate_hz: f64,
+        /// What the rate matches: `inner_race`, `outer_race`, `ball`, `shaft` (once per
+        /// turn), `shaft_synchronous` (k impacts per turn) or `unexplained`.
+        source: String,
+    },
+    /// Output-side band noise nobody declared.
+    UnexplainedBand {
+        /// Centre, Hz.
+        f_hz: f64,
+        /// −3 dB bandwidth, Hz.
+        bandwidth_hz: f64,
+    },
+    /// Ring-downs at random times added at the sensor: impacts at no rate of the
+    /// machine — the collapse of vapour bubbles in a cavitating pump, debris carried
+    /// through it, a loose part struck at random — each ringing a casing mode of its
+    /// own, not the bearing's structure. A Poisson process of bursts
+    /// `a_i·e^{−π·B·t}·sin 2π f t` (mean rate λ, amplitudes log-normal about `a`, σ = 0.5).
+    /// Its spectrum is a band like [`Effect::UnexplainedBand`]'s (shot noise tends to
+    /// Gaussian noise as λ grows); what sets it apart is impulsiveness: at a rate of
+    /// tens per second the band is carried by isolated bursts, and the fit reads λ from
+    /// the record's kurtosis and envelope as much as from its spectrum.
+    RandomBursts {
+        /// Initial ring frequency, Hz.
+        f_hz: f64,
+        /// Initial −3 dB bandwidth, Hz.
+        bandwidth_hz: f64,
+    },
+}
+
+impl Effect {
+    /// The effect's name in reports.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Effect::ShaftHarmonics { .. } => "shaft_harmonics",
+            Effect::ShaftOrderTones { .. } => "shaft_order_tones",
+            Effect::HalfOrders { .. } => "half_orders",
+            Effect::LoadZoneModulation { .. } => "load_zone_modulation",
+            Effect::Slip => "slip",
+            Effect::SpeedDrift { .. } => "speed_drift",
+            Effect::ExtraResonance { .. } => "extra_resonance",
+            Effect::NonlinearStiffness { .. } => "nonlinear_stiffness",
+            Effect::LineInterference { .. } => "line_interference",
+            Effect::UnexplainedPeriodic { .. } => "unexplained_periodic",
+            Effect::UnexplainedBand { .. } => "unexplained_band",
+            Effect::SecondImpactTrain { .. } => "second_impact_train",
+            Effect::RandomBursts { .. } => "random_bursts",
+        }
+    }
+
+    /// The shaft orders of a force at the shaft's orders through the bearing
+    /// (`shaft_harmonics`: k; `half_orders`: k + ½), with the prefix of its amplitude
+    /// parameters; `None` for any other effect.
+    fn force_orders(&self) -> Option<(Vec<f64>, &'static str)> {
+        match self {
+            Effect::ShaftHarmonics { orders } => Some((
+                orders.iter().map(|&k| f64::from(k)).collect(),
+                "ln_shaft_amp_",
+            )),
+            Effect::HalfOrders { orders } => Some((orders.clone(), "ln_half_order_amp_")),
+            _ => None,
+        }
+    }
+
+    /// Whether the effect is a term added at the sensor, after the structure (mains
+    /// lines, tones by another path, an unexplained tone or band): it has nothing to
+    /// trade with the structure's parameters but the measurement noise.
+    pub fn is_output_side(&self) -> bool {
+        matches!(
+            self,
+            Effect::ShaftOrderTones { .. }
+                | Effect::LineInterference { .. }
+                | Effect::UnexplainedPeriodic { .. }
+                | Effect::UnexplainedBand { .. }
+                | Effect::RandomBursts { .. }
+        )
+    }
+
+    /// The bearing defect a second impact train's rate was named for (`None` for any
+    /// other effect, and for a train from elsewhere: a rub, a struck part). Its load
+    /// zone modulates it as it does that defect: at the core's
+    /// [`DefectFrequencies::modulation_rate`] (shaft for an inner race, cage for a ball,
+    /// none for a stationary outer race).
+    pub fn second_train_location(&self) -> Option<DefectLocation> {
+        let Effect::SecondImpactTrain { source, .. } = self else {
+            return None;
+        };
+        [
+            DefectLocation::OuterRace,
+            DefectLocation::InnerRace,
+            DefectLocation::Ball,
+        ]
+        .into_iter()
+        .find(|loc| fault_name(Some(*loc)) == source)
+    }
+
+    /// Names and initial unconstrained values of the parameters it adds, from what the
+    /// current model and the measurement say (`Start`).
+    fn initial(&self, st: &Start<'_>) -> Vec<(String, f64)> {
+        let Start {
+            noise,
+            excess_power,
+            force_gain,
+            freqs,
+            peak_displacement,
+            impact_amp,
+            background,
+        } = *st;
+        let shaft = f64::from(freqs.shaft);
+        // A sinusoid carrying the excess power at `f` (a one-sided PSD line of
+        // amplitude A holds A²/2).
+        let line_amp = |f: f64| excess_power(f, 0.0).map(|p| (2.0 * p).sqrt());
+        let amp_or = |f: f64| line_amp(f).unwrap_or(3.0 * noise).max(1e-9).ln();
+        match self {
+            Effect::ShaftHarmonics { .. } | Effect::HalfOrders { .. } => {
+                let (orders, prefix) = self.force_orders().unwrap_or_default();
+                orders
+                    .iter()
+                    .map(|h| {
+                        let f = shaft * h;
+                        let amp = line_amp(f).map_or(1.0, |a| a / force_gain(f).max(1e-30));
+                        (format!("{prefix}{h}x"), amp.max(1e-6).ln())
+                    })
+                    .collect()
+            }
+            Effect::ShaftOrderTones { orders } => orders
+                .iter()
+                .map(|k| (format!("ln_tone_amp_{k}x"), amp_or(shaft * f64::from(*k))))
+                .collect(),
+            Effect::LoadZoneModulation { .. } => vec![("logit_modulation_depth".into(), 0.0)],
+            Effect::Slip => vec![("ln_jitter".into(), (0.005f64).ln())],
+            Effect::SpeedDrift { initial_per_s, .. } => {
+                vec![("drift_per_s".into(), *initial_per_s)]
+            }
+            Effect::ExtraResonance { f_hz } => vec![
+                ("ln_fn2_hz".into(), f_hz.ln()),
+                ("ln_zeta2".into(), (0.03f64).ln()),
+                ("ln_share2".into(), (0.5f64).ln()),
+            ],
+            Effect::NonlinearStiffness { initial_rel_shift } => {
+                // Duffing: Δf/f ≈ (3/8)·k_NL·A²/k_r at amplitude A; the early ring-down
+                // window averages over the decay, so the peak shift is about twice the
+                // measured one. ρ = k_NL·x_ref²/k_r.
+                let a = peak_displacement.max(1e-12);
+                let rho = (8.0 / 3.0) * 2.0 * initial_rel_shift.max(1e-4) * (X_REF_M / a).powi(2);
+                vec![("ln_knl_rel".into(), rho.ln())]
+            }
+            Effect::LineInterference { freqs } => freqs
+                .iter()
+                .map(|f| (format!("ln_line_amp_{f:.1}hz"), amp_or(*f)))
+                .collect(),
+            Effect::UnexplainedPeriodic { f_hz, .. } => {
+                vec![("ln_periodic_amp".into(), amp_or(*f_hz))]
+            }
+            // Band noise whose RMS carries the excess power over the band (started at
+            // the measurement noise σ_y, a band a few dB over the model adds nothing
+            // the log spectrum can feel, and the refit never moves it), with its centre
+            // and width fitted too: the band is read off a residual smoothed over
+            // ±100 Hz, which widens its run.
+            Effect::UnexplainedBand { f_hz, bandwidth_hz } => vec![
+                (
+                    "ln_band_level".into(),
+                    excess_power(*f_hz, 0.5 * bandwidth_hz)
+                        .map_or(noise, f64::sqrt)
+                        .max(1e-9)
+                        .ln(),
+                ),
+                ("ln_band_centre_hz".into(), f_hz.ln()),
+                ("ln_band_width_hz".into(), bandwidth_hz.max(1.0).ln()),
+            ],
+            // Bursts carrying the band's excess power at a start of 50 per second: the
+            // power of shot noise of rate λ whose bursts ring `a·e^{−πBt}·sin 2πft` is
+            // λ·E[a²]/(4πB); E[a²] = a²·e^{σ²} with log-normal amplitudes (σ = 0.5).
+            Effect::RandomBursts { f_hz, bandwidth_hz } => {
+                let rate = BURST_START_RATE_HZ;
+                let power = excess_power(*f_hz, 0.5 * bandwidth_hz).unwrap_or(noise * noise);
+                let amp = (power * 4.0 * std::f64::consts::PI * bandwidth_hz
+                    / (rate * (BURST_LOG_SIGMA * BURST_LOG_SIGMA).exp()))
+                .sqrt();
+                vec![
+                    ("ln_burst_amp".into(), amp.max(1e-9).ln()),
+                    ("ln_burst_rate_hz".into(), rate.ln()),
+                    ("ln_burst_ring_hz".into(), f_hz.ln()),
+                    ("ln_burst_width_hz".into(), bandwidth_hz.max(10.0).ln()),
+                ]
+            }
+            // Half the modelled defect's impact level, or (healthy model) twenty times
+            // the background force; the refit's second start tries a twentieth of it.
+            Effect::SecondImpactTrain { .. } => {
+                let start = if impact_amp > 0.0 {
+                    0.5 * impact_amp
+                } else {
+                    20.0 * background
+                };
+                let mut v = vec![("ln_impact2_amp".into(), start.max(1e-9).ln())];
+                if self
+                    .second_train_location()
+                    .is_some_and(|loc| freqs.modulation_rate(loc) > 0.0)
+                {
+                    v.push(("logit_modulation2_depth".into(), 0.0));
+                }
+                v
+            }
+        }
+    }
+}
+
+/// What an effect's starting values are taken from.
+#[derive(Clone, Copy)]
+struct Start<'a> {
+    /// Measurement noise σ_y of the current model (output units).
+    noise: f64,
+    /// Power (output units²) of the measured excess over the model within `f ± half`
+    /// Hz (at least the PSD's ±2 bins): `excess_power(f, half)`.
+    excess_power: &'a dyn Fn(f64, f64) -> Option<f64>,
+    /// The model's output amplitude per newton of force at a frequency.
+    force_gain: &'a dyn Fn(f64) -> f64,
+    /// Kinematic frequencies at the nominal speed.
+    freqs: DefectFrequencies,
+    /// Peak displacement of one impact's ring-down, m.
+    peak_displacement: f64,
+    /// The modelled defect's impact level, N (0 for a healthy model).
+    impact_amp: f64,
+    /// Background force σ_F, N.
+    background: f64,
+}
+
+/// A named unconstrained parameter.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Param {
+    /// Name (`ln_…` log, `logit_…` logit, else linear).
+    pub name: String,
+    /// Unconstrained value.
+    pub value: f64,
+    /// Finite-difference step for the Jacobian.
+    #[serde(skip)]
+    pub step: f64,
+}
+
+/// What the model is told: only what a user knows.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OperatingPoint {
+    /// Sampling rate of the record, Hz.
+    pub fs_hz: f32,
+    /// Kinematic frequencies at the nominal speed.
+    pub freqs: DefectFrequencies,
+}
+
+/// The parametric twin.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TwinModel {
+    /// Operating point.
+    pub op: OperatingPoint,
+    /// Fault hypothesis (`None`: healthy).
+    pub fault: Option<DefectLocation>,
+    /// Base parameters then effect parameters, in order.
+    pub params: Vec<Param>,
+    /// Effects, in the order they were added, with the index of their first parameter.
+    pub effects: Vec<(Effect, usize)>,
+}
+
+fn p(name: &str, value: f64, step: f64) -> Param {
+    Param {
+        name: name.into(),
+        value,
+        step,
+    }
+}
+
+impl TwinModel {
+    /// The base model for a fault hypothesis with initial values.
+    pub fn base(
+        op: OperatingPoint,
+        fault: Option<DefectLocation>,
+        fn_hz: f64,
+        zeta: f64,
+        amp: f64,
+        noise: f64,
+    ) -> Self {
+        let mut params = vec![
+            p("ln_fn_hz", fn_hz.ln(), 1e-3),
+            p("ln_zeta", zeta.ln(), 1e-2),
+        ];
+        if fault.is_some() {
+            params.push(p("ln_impact_amp", amp.ln(), 1e-2));
+            params.push(p("rate_factor", 0.0, 0.0));
+        }
+        params.push(p("ln_background", (0.05 * amp).ln(), 1e-2));
+        params.push(p("ln_meas_noise", noise.ln(), 1e-2));
+        Self {
+            op,
+            fault,
+            params,
+            effects: Vec::new(),
+        }
+    }
+
+    /// This model with `effect` added. `excess_power(f, half)` gives the power of the
+    /// measured excess within `f ± half` Hz (output units²) to start line- and band-like
+    /// terms where the data puts them; other parameters start from physical defaults.
+    pub fn with_effect(
+        &self,
+        effect: Effect,
+        excess_power: &dyn Fn(f64, f64) -> Option<f64>,
+    ) -> Self {
+        let mut m = self.clone();
+        let noise = self.get("ln_meas_noise").map_or(0.01, f64::exp);
+        let fn_hz = self.get("ln_fn_hz").map_or(3000.0, f64::exp);
+        let zeta = self.get("ln_zeta").map_or(0.05, f64::exp);
+        // Acceleration per newton of a unit-mass mode, in g: ω² / |ω_n² − ω² + 2iζω_nω| / g.
+        let force_gain = |f: f64| {
+            let (w, wn) = (
+                2.0 * std::f64::consts::PI * f,
+                2.0 * std::f64::consts::PI * fn_hz,
+            );
+            let re = wn * wn - w * w;
+            let im = 2.0 * zeta * wn * w;
+            w * w / (re * re + im * im).sqrt() / f64::from(G)
+        };
+        let first = m.params.len();
+        // Peak displacement of an impact ring-down: impulse A·σ·√(2π) / (m·ω_n).
+        let amp = self.get("ln_impact_amp").map_or(0.0, f64::exp);
+        let peak = amp * IMPACT_SIGMA_S * (2.0 * std::f64::consts::PI).sqrt()
+            / (2.0 * std::f64::consts::PI * fn_hz);
+        // A repeated effect (a further structural mode) gets its parameters numbered.
+        let repeat = self
+            .effects
+            .iter()
+            .filter(|(e, _)| e.name() == effect.name())
+            .count();
+        let background = self.get("ln_background").map_or(0.0, f64::exp);
+        let start = Start {
+            noise,
+            excess_power,
+            force_gain: &force_gain,
+            freqs: self.op.freqs,
+            peak_displacement: peak,
+            impact_amp: amp,
+            background,
+        };
+        for (name, value) in effect.initial(&start) {
+            let name = if repeat > 0 {
+                format!("{name}_{}", repeat + 1)
+            } else {
+                name
+            };
+            let step = if name.starts_with("ln_") || name.starts_with("logit_") {
+                1e-2
+            } else {
+                1e-4
+            };
+            m.params.push(Param { name, value, step });
+        }
+        // A washed-out comb no longer pins the rate: let the fit move it.
+        if let Effect::SpeedDrift {
+            initial_rate_factor,
+            ..
+        } = &effect
+        {
+            if let Some(p) = m.params.iter_mut().find(|p| p.name == "rate_factor") {
+                p.value = *initial_rate_factor;
+                p.step = 1e-4;
+            }
+        }
+        if matches!(effect, Effect::Slip) {
+            if let Some(p) = m.params.iter_mut().find(|p| p.name == "rate_factor") {
+                p.step = 1e-4;
+            }
+        }
+        m.effects.push((effect, first));
+        m
+    }
+
+    /// The value of a parameter by name.
+    pub fn get(&self, name: &str) -> Option<f64> {
+        self.params.iter().find(|p| p.name == name).map(|p| p.value)
+    }
+
+    /// Unconstrained parameter vector.
+    pub fn theta(&self) -> Vec<f64> {
+        self.params.iter().map(|p| p.value).collect()
+    }
+
+    /// A copy with the parameter vector replaced.
+    pub fn with_theta(&self, theta: &[f64]) -> Self {
+        let mut m = self.clone();
+        for (p, &v) in m.params.iter_mut().zip(theta) {
+            p.value = v;
+        }
+        m
+    }
+
+    /// Physical values of all parameters, for reports.
+    pub fn physical(&self) -> serde_json::Map<String, serde_json::Value> {
+        let mut out = serde_json::Map::new();
+        for p in &self.params {
+            let (name, v) = if let Some(n) = p.name.strip_prefix("ln_") {
+                (n.to_string(), p.value.exp())
+            } else if let Some(n) = p.name.strip_prefix("logit_") {
+                (n.to_string(), 1.0 / (1.0 + (-p.value).exp()))
+            } else {
+                (p.name.clone(), p.value)
+            };
+            out.insert(name, serde_json::json!(v));
+        }
+        let fn_hz = self.get("ln_fn_hz").map_or(0.0, f64::exp);
+        let w = 2.0 * std::f64::consts::PI * fn_hz;
+        out.insert("stiffness_radial_n_per_m".into(), serde_json::json!(w * w));
+        let zeta = self.get("ln_zeta").map_or(0.0, f64::exp);
+        out.insert(
+            "damping_radial_ns_per_m".into(),
+            serde_json::json!(2.0 * zeta * w),
+        );
+        out
+    }
+
+    /// Every effect of `kind` with its parameters, in the order they were added.
+    pub fn effects_of(&self, kind: &str) -> Vec<(&Effect, &[Param])> {
+        self.effect_spans()
+            .filter(|(e, _)| e.name() == kind)
+            .map(|(e, span)| (e, &self.params[span]))
+            .collect()
+    }
+
+    /// The frequencies (Hz) of every sinusoid the model adds, at the sensor or as a
+    /// force: a line there is that term's misfit, not a new effect.
+    pub fn tone_frequencies(&self) -> Vec<f64> {
+        let shaft = f64::from(self.op.freqs.shaft);
+        let mut out = Vec::new();
+        for (e, _) in &self.effects {
+            match e {
+                Effect::LineInterference { freqs } => out.extend(freqs.iter().copied()),
+                Effect::ShaftOrderTones { orders } => {
+                    out.extend(orders.iter().map(|&k| shaft * f64::from(k)))
+                }
+                Effect::UnexplainedPeriodic { f_hz, .. } => out.push(*f_hz),
+                other => {
+                    if let Some((orders, _)) = other.force_orders() {
+                        out.extend(orders.iter().map(|k| shaft * k));
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// Every effect with the index range of its parameters, in the order added.
+    fn effect_spans(&self) -> impl Iterator<Item = (&Effect, std::ops::Range<usize>)> + '_ {
+        self.effects.iter().enumerate().map(|(i, (e, first))| {
+            let end = self
+                .effects
+                .get(i + 1)
+                .map_or(self.params.len(), |(_, f)| *f);
+            (e, *first..end)
+        })
+    }
+
+    /// Natural frequencies of the modes the model has: the base mode, then every
+    /// extra resonance, Hz.
+    pub fn mode_frequencies(&self) -> Vec<f64> {
+        let mut f = vec![self.get("ln_fn_hz").map_or(3000.0, f64::exp)];
+        for (_, p) in self.effects_of("extra_resonance") {
+            if let Some(first) = p.first() {
+                f.push(first.value.exp());
+            }
+        }
+        f
+    }
+
+    /// The mean overlap `λ·τ` of the last [`Effect::RandomBursts`] (rate × decay time
+    /// `1/(πB)`), or `None` without bursts.
+    pub fn burst_overlap(&self) -> Option<f64> {
+        let (_, p) = self.effects_of("random_bursts").pop()?;
+        let (rate, width) = (p.get(1)?.value.exp(), p.get(3)?.value.exp());
+        Some(rate / (std::f64::consts::PI * width))
+    }
+
+    fn effect_params(&self, kind: &str) -> Option<(&Effect, &[Param])> {
+        self.effects_of(kind).into_iter().next()
+    }
+
+    /// Simulate `n_keep` samples at the record's rate with PRNG `seed`.
+    ///
+    /// The structure's response (the RK4 simulation, the measurement chain) depends only
+    /// on the structural parameters; the output-side terms (tones, lines, band noise,
+    /// measurement noise) are added to it. A finite-difference Jacobian perturbs one
+    /// parameter at a time, so the last structural response is kept per thread and
+    /// reused when only output-side parameters changed: the same samples, bit for bit,
+    /// without the simulation.
+    pub fn render(&self, n_keep: usize, seed: u64) -> Result<Vec<f32>, pumptwin_core::Error> {
+        use std::cell::RefCell;
+        use std::rc::Rc;
+        type Cached = (String, Rc<Structure>);
+        thread_local! {
+            static LAST: RefCell<Option<Cached>> = const { RefCell::new(None) };
+        }
+        let key = self.structure_key(n_keep, seed);
+        let hit = LAST.with(|c| {
+            c.borrow()
+                .as_ref()
+                .filter(|(k, _)| *k == key)
+                .map(|(_, v)| v.clone())
+        });
+        let structure = match hit {
+            Some(v) => v,
+            None => {
+                let v = Rc::new(self.render_structure(n_keep, seed)?);
+                LAST.with(|c| *c.borrow_mut() = Some((key, v.clone())));
+                v
+            }
+        };
+        let Structure {
+            y,
+            rng,
+            shaft,
+            drift,
+        } = &*structure;
+        let (mut y, mut rng, shaft, drift) = (y.clone(), rng.clone(), *shaft, *drift);
+        let fs = f64::from(self.op.fs_hz);
+
+        // Output-side terms.
+        let mut add_sine = |f: f64, amp: f64, phase: f64| {
+            for (j, v) in y.iter_mut().enumerate() {
+                let t = j as f64 / fs;
+                *v += (amp
+                    * (2.0 * std::f64::consts::PI * f * (t + 0.5 * drift * t * t) + phase).sin())
+                    as f32;
+            }
+        };
+        if let Some((Effect::LineInterference { freqs }, p)) =
+            self.effect_params("line_interference")
+        {
+            for (f, param) in freqs.iter().zip(p) {
+                add_sine(*f, param.value.exp(), 0.1 * f);
+            }
+        }
+        if let Some((Effect::ShaftOrderTones { orders }, p)) =
+            self.effect_params("shaft_order_tones")
+        {
+            for (k, param) in orders.iter().zip(p) {
+                add_sine(
+                    shaft * f64::from(*k),
+                    param.value.exp(),
+                    0.5 * f64::from(*k),
+                );
+            }
+        }
+        // A record may carry several tones, and bands, nobody declared.
+        for (e, p) in self.effects_of("unexplained_periodic") {
+            if let Effect::UnexplainedPeriodic { f_hz, .. } = e {
+                add_sine(*f_hz, p[0].value.exp(), 0.7);
+            }
+        }
+        for (_, p) in self.effects_of("unexplained_band") {
+            let [level, centre, width] = [0, 1, 2].map(|i| p[i].value.exp());
+            add_band_noise(&mut y, fs, centre, width, level, &mut rng)?;
+        }
+        for (i, (_, p)) in self.effects_of("random_bursts").into_iter().enumerate() {
+            let [amp, rate, ring, width] = [0, 1, 2, 3].map(|k| p[k].value.exp());
+            add_random_bursts(
+                &mut y,
+                fs,
+                [amp, rate, ring, width],
+                seed ^ (0xB0_5757 + i as u64),
+            );
+        }
+        let noise = self.get("ln_meas_noise").map_or(0.0, f64::exp);
+        let unit_y = unit_normals(y.len(), seed ^ 0x0_15E);
+        for (j, v) in y.iter_mut().enumerate() {
+            *v += (noise * unit_y[j]) as f32;
+        }
+        Ok(y)
+    }
+
+    /// Which parameters belong to the terms added at the sensor, after the structure:
+    /// the measurement noise and the parameters of every output-side effect
+    /// ([`Effect::is_output_side`]).
+    pub fn output_side(&self) -> Vec<bool> {
+        let mut mask: Vec<bool> = self
+            .params
+            .iter()
+            .map(|p| p.name == "ln_meas_noise")
+            .collect();
+        for (_, span) in self.effect_spans().filter(|(e, _)| e.is_output_side()) {
+            mask[span].iter_mut().for_each(|m| *m = true);
+        }
+        mask
+    }
+
+    /// A copy whose parameters `hold` names keep their values in a fit (zero step).
+    pub fn holding(&self, hold: impl Fn(usize, &Param) -> bool) -> Self {
+        let mut m = self.clone();
+        for (i, p) in m.params.iter_mut().enumerate() {
+            if hold(i, &self.params[i]) {
+                p.step = 0.0;
+            }
+        }
+        m
+    }
+
+    /// What identifies the structural response: the operating point, the fault, the
+    /// effects and every parameter that is not output-side ([`Self::output_side`]).
+    fn structure_key(&self, n_keep: usize, seed: u64) -> String {
+        use std::fmt::Write;
+        let mut key = format!(
+            "{n_keep}|{seed}|{:?}|{:?}|{:?}",
+            self.op, self.fault, self.effects
+        );
+        let output_side = self.output_side();
+        for (p, _) in self.params.iter().zip(output_side).filter(|(_, o)| !o) {
+            let _ = write!(key, "|{}={:x}", p.name, p.value.to_bits());
+        }
+        key
+    }
+
+    /// The structure's response to the forces, through the measurement chain, before
+    /// the output-side terms: `n_keep` samples, the PRNG as the forces left it, and the
+    /// drift-centred shaft rate and drift the output-side terms follow.
+    fn render_structure(
+        &self,
+        n_keep: usize,
+        seed: u64,
+    ) -> Result<Structure, pumptwin_core::Error> {
+        let fs = f64::from(self.op.fs_hz);
+        // Warm-up simulated and dropped (no switch-on transient), as in `crate::sim`.
+        let n_warm = (WARMUP_S * fs) as usize;
+        let n_out = n_keep + n_warm;
+        let fs_sim = fs * OVERSAMPLE as f64;
+        let h = 1.0 / fs_sim;
+        let n_sim = n_out * OVERSAMPLE;
+        let shaft = f64::from(self.op.freqs.shaft);
+        let get = |n: &str| self.get(n);
+        let fn_hz = get("ln_fn_hz").map_or(3000.0, f64::exp);
+        let zeta = get("ln_zeta").map_or(0.05, f64::exp);
+        let drift = self
+            .effect_params("speed_drift")
+            .map_or(0.0, |(_, p)| p[0].value.clamp(-0.2, 0.2));
+        let mut rng = Xoshiro128pp::seed_from_u64(seed);
+
+        let (rate, mod_default) = match self.fault {
+            Some(loc) => (
+                f64::from(self.op.freqs.impact_rate(loc)),
+                f64::from(self.op.freqs.modulation_rate(loc)),
+            ),
+            None => (1.0, 0.0),
+        };
+        // A drift is centred on the kept record, so the mean rate stays the fitted one.
+        let t_mid = (n_warm as f64 + 0.5 * n_keep as f64) / fs;
+        let centre = 1.0 / (1.0 + drift * t_mid);
+        let rate = centre * rate * (1.0 + get("rate_factor").unwrap_or(0.0).clamp(-0.1, 0.1));
+        let shaft = centre * shaft;
+        let (depth, mod_hz) = match self.effect_params("load_zone_modulation") {
+            Some((Effect::LoadZoneModulation { mod_hz }, p)) => {
+                (1.0 / (1.0 + (-p[0].value).exp()), *mod_hz)
+            }
+            _ => (0.0, mod_default),
+        };
+        let jitter = self
+            .effect_params("slip")
+            .map_or(0.0, |(_, p)| p[0].value.exp().min(0.2));
+        let ex = CompositeExcitation {
+            impact: ImpactTrain {
+                amplitude: get("ln_impact_amp").map_or(0.0, f64::exp),
+                rate_hz: rate,
+                sigma_s: IMPACT_SIGMA_S,
+                first_impact_s: 0.37 / rate,
+                modulation_depth: depth,
+                modulation_hz: mod_hz * centre,
+                jitter,
+                rate_drift_per_s: drift,
+            },
+            sinusoid: ShaftSinusoid {
+                amplitude: 0.0,
+                shaft_hz: shaft,
+                phase_rad: 0.0,
+                drift_per_s: drift,
+            },
+            random: RandomExcitation {
+                // Per half-step sample; scaled so the level does not depend on the step.
+                // Added below from the cached unit sequence (common random numbers).
+                noise_std: 0.0,
+                pulse_rate_hz: 0.0,
+                pulse_amplitude: 0.0,
+                pulse_sigma_s: IMPACT_SIGMA_S,
+            },
+            w_impact: if self.fault.is_some() { 1.0 } else { 0.0 },
+            w_sin: 0.0,
+            w_rand: 1.0,
+            angular_share: 0.0,
+        };
+        let grid = TimeGrid {
+            t0: 0.0,
+            dt: 0.5 * h,
+        };
+        let mut force_r = vec![0.0f64; 2 * n_sim + 1];
+        let mut force_t = vec![0.0f64; 2 * n_sim + 1];
+        ex.render(grid, &mut force_r, &mut force_t, &mut rng)?;
+        // A further modulation of the same impacts (a load that varies at a rate of its
+        // own, a process pulsation, on top of the load zone the train carries): their
+        // amplitudes multiplied by it, in the train's form, at a rate that does not
+        // follow the shaft's speed.
+        for (e, p) in self.effects_of("load_zone_modulation").into_iter().skip(1) {
+            if let (Effect::LoadZoneModulation { mod_hz }, Some(q)) = (e, p.first()) {
+                let depth = 1.0 / (1.0 + (-q.value).exp());
+                let w = 2.0 * std::f64::consts::PI * mod_hz;
+                for (j, f) in force_r.iter_mut().enumerate() {
+                    let t = grid.t0 + j as f64 * grid.dt;
+                    *f *= 1.0 - depth + depth * 0.5 * (1.0 + (w * t).cos());
+                }
+            }
+        }
+        // Background force: the same unit-variance sequence for every evaluation with
+        // this seed, scaled per half-step sample so the level does not depend on the step.
+        let bg = get("ln_background").map_or(0.0, f64::exp) * (OVERSAMPLE as f64).sqrt();
+        let unit = unit_normals(force_r.len(), seed ^ 0xF0_7CE);
+        for (f, u) in force_r.iter_mut().zip(unit.iter()) {
+            *f += bg * u;
+        }
+        for kind in ["shaft_harmonics", "half_orders"] {
+            let Some((e, p)) = self.effect_params(kind) else {
+                continue;
+            };
+            let (orders, _) = e.force_orders().unwrap_or_default();
+            for (h, param) in orders.iter().zip(p) {
+                let s = ShaftSinusoid {
+                    amplitude: param.value.exp(),
+                    shaft_hz: shaft * h,
+                    phase_rad: 0.3 * h,
+                    drift_per_s: drift,
+                };
+                s.add_to(grid, 1.0, &mut force_r)?;
+            }
+        }
+        for (e, p) in self.effects_of("second_impact_train") {
+            if let Effect::SecondImpactTrain { rate_hz, .. } = e {
+                // Rolling-element slip times every defect's impacts alike; a train
+                // from elsewhere (a rub, a struck part) keeps its own clock.
+                let location = e.second_train_location();
+                let bearing_defect = location.is_some();
+                let mod_hz = location.map_or(0.0, |loc| {
+                    centre * f64::from(self.op.freqs.modulation_rate(loc))
+                });
+                let depth = match p.get(1) {
+                    Some(q) if mod_hz > 0.0 => 1.0 / (1.0 + (-q.value).exp()),
+                    _ => 0.0,
+                };
+                let train = ImpactTrain {
+                    amplitude: p[0].value.exp(),
+                    rate_hz: centre * rate_hz,
+                    sigma_s: IMPACT_SIGMA_S,
+                    first_impact_s: 0.61 / rate_hz,
+                    modulation_depth: depth,
+                    modulation_hz: mod_hz,
+                    jitter: if bearing_defect { jitter } else { 0.0 },
+                    rate_drift_per_s: drift,
+                };
+                train.add_to(grid, 1.0, &mut force_r, &mut rng)?;
+            }
+        }
+        let mut params = BearingParams::from_modal(1.0, fn_hz, zeta, 1000.0, 0.05, 0.0, 0.0)?;
+        // Extra structural modes: the first is the model's second DOF (driven by
+        // `share · F_r`); further ones are modal superposition — more linear modes,
+        // pairwise in extra 2-DOF systems with no coupling and no cubic term, driven by
+        // the same radial force, their accelerations added at the sensor.
+        let extra_modes: Vec<(f64, f64, f64)> = self
+            .effects_of("extra_resonance")
+            .iter()
+            .filter(|(_, p)| p.len() >= 3)
+            .map(|(_, p)| (p[0].value.exp(), p[1].value.exp(), p[2].value.exp()))
+            .collect();
+        if let Some(&(f2, z2, share)) = extra_modes.first() {
+            let w2 = 2.0 * std::f64::consts::PI * f2;
+            params.stiffness_angular = w2 * w2;
+            params.damping_angular = 2.0 * z2 * w2;
+            for (t, r) in force_t.iter_mut().zip(&force_r) {
+                *t = share * r;
+            }
+        }
+        if let Some((_, p)) = self.effect_params("nonlinear_stiffness") {
+            params.stiffness_nl_radial =
+                p[0].value.exp() * params.stiffness_radial / (X_REF_M * X_REF_M);
+        }
+        let model = Bearing2Dof::<f64>::new(&params)?;
+        let mut acc_r = vec![0.0f64; n_sim];
+        let mut acc_t = vec![0.0f64; n_sim];
+        model.simulate(State::REST, h, &force_r, &force_t, &mut acc_r, &mut acc_t)?;
+        for pair in extra_modes.get(1..).unwrap_or(&[]).chunks(2) {
+            let (fa, za, sa) = pair[0];
+            let (fb, zb, sb) = pair.get(1).copied().unwrap_or((fa, za, 0.0));
+            let modes = BearingParams::from_modal(1.0, fa, za, fb, zb, 0.0, 0.0)?;
+            let fa_r: Vec<f64> = force_r.iter().map(|f| sa * f).collect();
+            let fb_t: Vec<f64> = force_r.iter().map(|f| sb * f).collect();
+            let (mut a1, mut a2) = (vec![0.0f64; n_sim], vec![0.0f64; n_sim]);
+            Bearing2Dof::<f64>::new(&modes)?.simulate(
+                State::REST,
+                h,
+                &fa_r,
+                &fb_t,
+                &mut a1,
+                &mut a2,
+            )?;
+            for ((t, x), y) in acc_t.iter_mut().zip(&a1).zip(&a2) {
+                *t += x + y;
+            }
+        }
+        let y_sim: Vec<f32> = acc_r
+            .iter()
+            .zip(&acc_t)
+            .map(|(a, b)| ((a + b) / f64::from(G)) as f32)
+            .collect();
+        // The measurement chain: a wide anti-alias filter (flat to the band limit) for
+        // the decimation, then the very band limit every measured record gets in
+        // preprocessing (`pumptwin_data::preprocess`), so model and record share the
+        // band-edge shape.
+        let mut taps = vec![0.0f32; 50 * OVERSAMPLE + 1];
+        design_lowpass(
+            (BAND_LIMIT_HZ + 600.0).min(0.46 * self.op.fs_hz),
+            fs_sim as f32,
+            &mut taps,
+        )?;
+        let mut y_aa = vec![0.0f32; decimated_len(n_sim, OVERSAMPLE)];
+        filter_decimate(&y_sim, &taps, OVERSAMPLE, &mut y_aa)?;
+        let mut band = vec![0.0f32; pumptwin_data::preprocess::BAND_LIMIT_TAPS];
+        design_lowpass(
+            BAND_LIMIT_HZ.min(0.45 * self.op.fs_hz),
+            self.op.fs_hz,
+            &mut band,
+        )?;
+        let mut y = vec![0.0f32; y_aa.len()];
+        filter_decimate(&y_aa, &band, 1, &mut y)?;
+        y.truncate(n_out);
+        y.drain(..n_warm);
+        Ok(Structure {
+            y,
+            rng,
+            shaft,
+            drift,
+        })
+    }
+}
+
+/// The structural part of a render ([`TwinModel::render`]).
+struct Structure {
+    /// Samples at the record's rate, warm-up dropped.
+    y: Vec<f32>,
+    /// The PRNG after the forces drew from it (the band noise draws next).
+    rng: Xoshiro128pp,
+    /// Shaft rate, centred for the drift, Hz.
+    shaft: f64,
+    /// Speed drift, fraction per second.
+    drift: f64,
+}
+
+/// A unit-variance Gaussian sequence of `n` values for `seed`, generated once per
+/// thread and reused: the fit evaluates the model hundreds of times with the same
+/// random numbers, and drawing them costs more than the RK4 integration.
+fn unit_normals(n: usize, seed: u64) -> std::rc::Rc<Vec<f64>> {
+    use std::cell::RefCell;
+    use std::rc::Rc;
+    /// `(length, seed, sequence)`, most recent last.
+    type Entry = (usize, u64, Rc<Vec<f64>>);
+    thread_local! {
+        static CACHE: RefCell<Vec<Entry>> = const { RefCell::new(Vec::new()) };
+    }
+    CACHE.with(|c| {
+        let mut c = c.borrow_mut();
+        if let Some((_, _, v)) = c.iter().find(|(len, s, _)| *len == n && *s == seed) {
+            return v.clone();
+        }
+        let mut rng = Xoshiro128pp::seed_from_u64(seed);
+        let v = Rc::new((0..n).map(|_| rng.normal()).collect::<Vec<f64>>());
+        if c.len() >= 8 {
+            c.remove(0);
+        }
+        c.push((n, seed, v.clone()));
+        v
+    })
+}
+
+/// Add band noise of RMS `level` whose spectrum is flat over `f ± bw/2` Hz, with
+/// raised-cosine skirts a tenth of the width wide (at least 20 Hz): noise added at the
+/// sensor (flow, cavitation, a neighbour's broadband) fills a band evenly; a two-pole
+/// resonator's skirts would spill power far outside it, where the fit then pushes
+/// the level down. Shaped in the frequency domain over the next power of two.
+fn add_band_noise(
+    y: &mut [f32],
+    fs: f64,
+    f: f64,
+    bw: f64,
+    level: f64,
+    rng: &mut Xoshiro128pp,
+) -> Result<(), pumptwin_core::Error> {
+    use pumptwin_core::fft::{fft_in_place, Complex32, Direction};
+    let n = y.len().next_power_of_two();
+    let mut z: Vec<Complex32> = (0..n)
+        .map(|_| Complex32::new(rng.normal() as f32, 0.0))
+        .collect();
+    fft_in_place(&mut z, Direction::Forward)?;
+    let df = fs / n as f64;
+    let (lo, hi) = (f - 0.5 * bw, f + 0.5 * bw);
+    let skirt = (0.1 * bw).max(20.0);
+    let gain = |fk: f64| {
+        let outside = (lo - fk).max(fk - hi);
+        if outside <= 0.0 {
+            1.0
+        } else if outside >= skirt {
+            0.0
+        } else {
+            0.5 * (1.0 + (std::f64::consts::PI * outside / skirt).cos())
+        }
+    };
+    for (k, v) in z.iter_mut().enumerate() {
+        let g = gain(k.min(n - k) as f64 * df) as f32;
+        *v = Complex32::new(v.re * g, v.im * g);
+    }
+    fft_in_place(&mut z, Direction::Inverse)?;
+    let band = &z[..y.len()];
+    let rms = (band.iter().map(|v| f64::from(v.re).powi(2)).sum::<f64>()
+        / band.len().max(1) as f64)
+        .sqrt()
+        .max(1e-30);
+    for (o, b) in y.iter_mut().zip(band) {
+        *o += (level * f64::from(b.re) / rms) as f32;
+    }
+    Ok(())
+}
+
+/// Mean burst rate a [`Effect::RandomBursts`] fit starts from, per second.
+pub const BURST_START_RATE_HZ: f64 = 50.0;
+/// Spread (σ of the logarithm) of the burst amplitudes about their level.
+pub const BURST_LOG_SIGMA: f64 = 0.5;
+/// Most bursts per second the model renders (a rate beyond it is band noise, which
+/// [`Effect::UnexplainedBand`] models).
+const BURST_MAX_RATE_HZ: f64 = 2000.0;
+
+/// Add [`Effect::RandomBursts`]' ring-downs to `y`: `[level, rate λ, ring f, width B]`.
+/// The bursts come from one fixed sequence of unit exponential gaps and unit normal
+/// amplitudes per `seed` (common random numbers): burst `i` falls at `Σ_{j≤i} E_j / λ`,
+/// so a change of λ moves every burst continuously and the fit's Jacobian sees a smooth
+/// change, not bursts appearing and vanishing at random.
+fn add_random_bursts(y: &mut [f32], fs: f64, [level, rate, ring, width]: [f64; 4], seed: u64) {
+    let rate = rate.clamp(1e-3, BURST_MAX_RATE_HZ);
+    let ring = ring.clamp(1.0, 0.49 * fs);
+    let decay = std::f64::consts::PI * width.max(1.0);
+    let len = ((8.0 / decay) * fs).ceil() as usize;
+    let duration = y.len() as f64 / fs;
+    // Enough draws for twice the expected count, in powers of two so the cached
+    // sequence (whose prefix is the same for every length) is reused across rates.
+    let n_bursts = ((2.0 * rate * duration + 10.0).ceil() as usize).next_power_of_two();
+    let draws = unit_normals(3 * n_bursts, seed);
+    let norm = (-0.5 * BURST_LOG_SIGMA * BURST_LOG_SIGMA).exp();
+    let mut t = 0.0;
+    for z in draws.chunks_exact(3) {
+        // A unit exponential gap from a normal pair, E = (z1² + z2²)/2; the amplitude
+        // from the third.
+        t += 0.5 * (z[0] * z[0] + z[1] * z[1]) / rate;
+        let start = (t * fs).ceil() as usize;
+        if start >= y.len() {
+            break;
+        }
+        let a = level * norm * (BURST_LOG_SIGMA * z[2]).exp();
+        for (j, v) in y[start..].iter_mut().take(len).enumerate() {
+            let tau = (start + j) as f64 / fs - t;
+            *v +=
+                (a * (-decay * tau).exp() * (2.0 * std::f64::consts::PI * ring * tau).sin()) as f32;
+        }
+    }
+}
+
+/// Which defect the frequencies point at, by name (`outer_race` …) for reports.
+pub fn fault_name(fault: Option<DefectLocation>) -> &'static str {
+    match fault {
+        None => "none",
+        Some(DefectLocation::OuterRace) => "outer_race",
+        Some(DefectLocation::InnerRace) => "inner_race",
+        Some(DefectLocation::Ball) => "ball",
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::signature::{Signature, SignatureConfig};
+    use pumptwin_core::bearing::BearingGeometry;
+
+    /// The bursts' mean square is the shot-noise power λ·E[a²]/(4πB) the effect's start
+    /// values are set from (E[a²] = a²·e^{σ²}), and a higher rate moves the same bursts
+    /// rather than drawing new ones: the first burst of the faster train is the first
+    /// of the slower one, earlier by the ratio of the rates.
+    #[test]
+    fn random_bursts_carry_the_shot_noise_power_and_scale_with_the_rate() {
+        let fs = 12_000.0;
+        let (amp, rate, ring, width) = (0.5, 40.0, 3000.0, 400.0);
+        let mut y = vec![0.0f32; 60 * 12_000];
+        add_random_bursts(&mut y, fs, [amp, rate, ring, width], 9);
+        let ms = y.iter().map(|v| f64::from(*v).powi(2)).sum::<f64>() / y.len() as f64;
+        let want = rate * amp * amp * (BURST_LOG_SIGMA * BURST_LOG_SIGMA).exp()
+            / (4.0 * std::f64::consts::PI * width);
+        assert!(
+            (ms / want - 1.0).abs() < 0.15,
+            "mean square {ms}, shot noise {want}"
+        );
+        let first = |rate: f64| {
+            let mut y = vec![0.0f32; 20 * 12_000];
+            add_random_bursts(&mut y, fs, [amp, rate, ring, width], 9);
+            y.iter().position(|v| *v != 0.0).expect("a burst")
+        };
+        let (slow, fast) = (first(0.5), first(1.0));
+        assert!(
+            (slow as f64 / fast as f64 - 2.0).abs() < 0.01,
+            "first burst at {slow} and {fast} samples"
+        );
+    }
+
+    /// Two added structural modes (the second by modal superposition) each raise the
+    /// rendered PSD at their frequency; the model without them has no such peaks.
+    #[test]
+    fn further_modes_add_resonances_by_superposition() {
+        let op = OperatingPoint {
+            fs_hz: 12_000.0,
+            freqs: BearingGeometry::CWRU_6205_DE.frequencies(29.95),
+        };
+        let base = TwinModel::base(
+            op,
+            Some(DefectLocation::InnerRace),
+            3_000.0,
+            0.03,
+            20.0,
+            1e-4,
+        );
+        let no_line = |_: f64, _: f64| None;
+        let one = base.with_effect(Effect::ExtraResonance { f_hz: 1_800.0 }, &no_line);
+        let two = one.with_effect(Effect::ExtraResonance { f_hz: 900.0 }, &no_line);
+        assert_eq!(two.mode_frequencies().len(), 3);
+        // Numbered parameters for the repeated effect.
+        assert!(two.get("ln_fn2_hz_2").is_some());
+        let cfg = SignatureConfig::fit(12_000.0);
+        let level = |m: &TwinModel, f: f32| -> f32 {
+            let y = m.render(24_000, 11).unwrap();
+            let sig = Signature::of(&y, &cfg).unwrap();
+            let k = (f / (cfg.fs_hz / cfg.psd_n as f32)).round() as usize;
+            10.0 * sig.psd[k].log10()
+        };
+        for (f, model_without) in [(1_800.0, &base), (900.0, &one)] {
+            let with = level(&two, f);
+            let without = level(model_without, f);
+            assert!(with > without + 6.0, "{f} Hz: {without:.1} -> {with:.1} dB");
+        }
+    }
+}
