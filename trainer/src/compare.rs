@@ -16,7 +16,8 @@ use plotters::prelude::*;
 use serde::Serialize;
 
 use crate::dataset::NodeSet;
-use crate::training::{run_name, value_name, Ablation, Arch, METRICS_FILE};
+use crate::training::artifacts::METRICS_FILE;
+use crate::training::config::{run_name, value_name, Ablation, Arch};
 use pumptwin_data::windows::Protocol;
 use pumptwin_twin::plot::{draw_legend, register_font};
 

@@ -28,7 +28,7 @@
 //! - `label`, `record`: `[W]`
 //! - `raw`: `[W, N, 2048]` the window's band-limited samples at the model rate (0 for an
 //!   absent node): the input of the raw-signal baselines (WDCNN, CoFusion-CNN, TST)
-//! - `spectra`: `[W, N, 16]` each node's spectrum shape ([`crate::physics::spectrum_shape`],
+//! - `spectra`: `[W, N, 16]` each node's spectrum shape ([`crate::targets::spectrum_shape`],
 //!   0 for an absent node): the target of the spectral consistency head (eq. 11)
 //! - `theta`: `[W, 4]` the record's fitted Θ_phys, z-scored (`NaN` where unknown):
 //!   F_map's target (eqs. 23–24), filled by [`Dataset::attach_theta`]
@@ -44,7 +44,7 @@ use pumptwin_core::features::{
 use pumptwin_core::graph::{Adjacency, GraphConfig};
 use pumptwin_core::rng::Xoshiro128pp;
 
-use crate::physics::{spectrum_shape, Theta, N_THETA, SPEC_BANDS};
+use crate::targets::{spectrum_shape, Theta, N_THETA, SPEC_BANDS};
 use pumptwin_data::entry::{load_entry, EntryError};
 use pumptwin_data::featurize::{
     feature_config, fit_norm, window_features, window_graphs, MaskCounts, WindowFeatures, SEGMENTS,

@@ -42,7 +42,10 @@ use crate::dataset::{
     STEPS,
 };
 use crate::model::DsStgat as BurnDsStgat;
-use crate::training::{Batch, TrainConfig};
+use crate::training::artifacts::{load_trained_config, parse_protocol};
+use crate::training::batch::Batch;
+use crate::training::config::{TrainConfig, ARCH};
+use crate::training::load::load_protocol;
 
 /// The arch name of the int8 model in reports.
 pub const ARCH_INT8: &str = "dsstgat-int8";
@@ -472,9 +475,9 @@ fn name(s: &str) -> Result<Name> {
 /// Quantize the trained DS-STGAT `spec.model` into the int8 model file `spec.out`,
 /// with its golden vectors, parity figures and model card beside it.
 pub fn export_model(args: &ExportSpec) -> Result<()> {
-    let (cfg, norms) = crate::training::load_trained_config(&args.model)?;
-    let protocol = crate::training::parse_protocol(&cfg.protocol)?;
-    if cfg.arch != crate::training::ARCH {
+    let (cfg, norms) = load_trained_config(&args.model)?;
+    let protocol = parse_protocol(&cfg.protocol)?;
+    if cfg.arch != ARCH {
         anyhow::bail!(
             "only the DS-STGAT has an int8 network in the core; {} is a {} model",
             args.model.display(),
@@ -488,8 +491,7 @@ pub fn export_model(args: &ExportSpec) -> Result<()> {
             args.model.display()
         );
     }
-    let (corpus, data) =
-        crate::training::load_protocol(&args.data, protocol, norms, cfg.graph_config(), NODES)?;
+    let (corpus, data) = load_protocol(&args.data, protocol, norms, cfg.graph_config(), NODES)?;
     ensure!(
         cfg.classes.is_empty() || cfg.classes == data.classes(),
         "the model's classes {:?} differ from the data's {:?}",

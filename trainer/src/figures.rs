@@ -26,7 +26,8 @@ use pumptwin_core::rng::Xoshiro128pp;
 
 use crate::dataset::{ProtocolData, STEPS};
 use crate::metrics::MetricsReport;
-use crate::training::{EpochStats, Inference};
+use crate::training::fit::EpochStats;
+use crate::training::inference::Inference;
 use pumptwin_twin::plot::{draw_legend, line_plot, register_font, PlotSpec, Series};
 
 fn draw_err(path: &Path, e: impl std::fmt::Display) -> anyhow::Error {

@@ -18,6 +18,7 @@ pub mod figures;
 pub mod metrics;
 pub mod model;
 pub mod physics;
+pub mod targets;
 pub mod training;
 
 /// Tests that seed burn's device random stream (and draw from it: initialization,

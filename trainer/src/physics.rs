@@ -57,6 +57,8 @@ use pumptwin_data::windows::{Split, WindowRef};
 use pumptwin_twin::closed_loop::{run as run_loop, LoopConfig, LoopInput};
 use pumptwin_twin::sim::{simulate, SimulationSpec};
 
+pub use crate::targets::{spectrum_shape, Theta, N_THETA, SPEC_BANDS, SPEC_MAX_HZ, THETA_NAMES};
+
 /// Additive white measurement noise (std, g) of the simulated windows the network is
 /// pre-trained on.
 ///
@@ -70,50 +72,8 @@ use pumptwin_twin::sim::{simulate, SimulationSpec};
 /// 0.82 → 0.49, FE–BA 0.82 → 0.53 on CWRU): what the sensors share above their noise.
 pub const SIM_MEASUREMENT_NOISE: f32 = 0.1;
 
-/// Bands of the node-spectrum shape (the `L_phy` target).
-pub const SPEC_BANDS: usize = 16;
-/// Upper edge of the node-spectrum bands, Hz (the common band limit).
-pub const SPEC_MAX_HZ: f32 = 5_000.0;
-/// Components of Θ_phys that F_map predicts.
-pub const N_THETA: usize = 4;
-/// Names of the Θ_phys components, in order.
-pub const THETA_NAMES: [&str; N_THETA] = [
-    "ln_stiffness_radial_n_per_m",
-    "ln_damping_radial_ns_per_m",
-    "ln_impact_amplitude",
-    "ln_measurement_noise",
-];
 /// Fault-type classes of the simulated pre-training windows.
 pub const SIM_CLASSES: [&str; 4] = ["normal", "OR", "IR", "B"];
-
-/// The shape of a node's spectrum: log10 band energies minus their mean.
-///
-/// `x` is one window at `fs_hz`; bands split [0, [`SPEC_MAX_HZ`]] evenly.
-pub fn spectrum_shape(x: &[f32], fs_hz: f32) -> [f32; SPEC_BANDS] {
-    let n = x.len();
-    let mut scratch = vec![Complex32::default(); n];
-    let mut power = vec![0.0f32; n / 2 + 1];
-    let mut out = [0.0f32; SPEC_BANDS];
-    if power_spectrum(x, Window::Hann, &mut scratch, &mut power).is_err() {
-        return out;
-    }
-    let df = fs_hz / n as f32;
-    let mut energy = [0.0f64; SPEC_BANDS];
-    for (k, p) in power.iter().enumerate() {
-        let f = k as f32 * df;
-        if f >= SPEC_MAX_HZ {
-            break;
-        }
-        let b = ((f / SPEC_MAX_HZ) * SPEC_BANDS as f32) as usize;
-        energy[b.min(SPEC_BANDS - 1)] += f64::from(*p);
-    }
-    let logs: Vec<f64> = energy.iter().map(|e| (e + 1e-20).log10()).collect();
-    let mean = logs.iter().sum::<f64>() / SPEC_BANDS as f64;
-    for (o, l) in out.iter_mut().zip(&logs) {
-        *o = (l - mean) as f32;
-    }
-    out
-}
 
 /// The simulated side of eq. 9, for `N` nodes.
 #[derive(Debug, Clone)]
@@ -270,9 +230,6 @@ impl<const N: usize> PhysicsEmbedding<N> {
         }
     }
 }
-
-/// Θ_phys of one record, `NaN` where undefined (see the module docs).
-pub type Theta = [f32; N_THETA];
 
 /// Settings of the Θ fits: 2 s of the drive-end channel, base model only.
 fn theta_loop_config() -> LoopConfig {
@@ -472,7 +429,7 @@ pub fn class_fault(name: &str) -> Option<DefectLocation> {
 pub fn response_mse(
     corpus: &Corpus,
     test: &[(WindowRef, usize)],
-    inference: &crate::training::Inference,
+    inference: &crate::training::inference::Inference,
     classes: &[String],
     mean: &[f32; N_THETA],
     std: &[f32; N_THETA],

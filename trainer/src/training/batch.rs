@@ -4,7 +4,7 @@
 use burn::tensor::{Device, Int, Tensor, TensorData};
 
 use crate::dataset::{Dataset, FEATURES, N_INDICATORS, STEPS};
-use crate::physics::{N_THETA, SPEC_BANDS};
+use crate::targets::{N_THETA, SPEC_BANDS};
 use pumptwin_data::featurize::WINDOW;
 
 /// One batch as tensors.

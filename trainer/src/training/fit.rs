@@ -21,7 +21,8 @@ use super::loss::{
 use super::net::{Net, Network};
 use crate::dataset::{Dataset, ProtocolData};
 use crate::model::{DsStgat, PhysicsHeads};
-use crate::physics::{PhysicsEmbedding, N_THETA, SIM_CLASSES, SPEC_BANDS};
+use crate::physics::{PhysicsEmbedding, SIM_CLASSES};
+use crate::targets::{N_THETA, SPEC_BANDS};
 use pumptwin_data::featurize::WINDOW;
 
 /// Figures of one epoch.

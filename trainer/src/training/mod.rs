@@ -63,14 +63,15 @@
 //! windows), `history.json` (per-epoch figures) and `metrics.json`
 //! ([`crate::metrics::MetricsReport`]).
 
-mod artifacts;
-mod batch;
-mod config;
-mod fit;
-mod inference;
-mod load;
-mod loss;
-mod net;
+pub mod artifacts;
+pub mod batch;
+pub mod config;
+pub mod evaluate;
+pub mod fit;
+pub mod inference;
+pub mod load;
+pub mod loss;
+pub mod net;
 #[cfg(test)]
 mod tests;
 
@@ -82,8 +83,9 @@ pub use batch::{Batch, BatchParts};
 pub use config::{
     run_name, value_name, Ablation, Arch, TrainConfig, ARCH, NODE_DROPOUT, PRETRAIN_EPOCHS,
 };
+pub use evaluate::evaluate_network;
 pub use fit::{physics_init, train, EpochStats, PhysicsInit, TrainOutcome};
-pub use inference::{accuracy, evaluate_network, infer, mean_loss, Inference};
+pub use inference::{accuracy, infer, mean_loss, Inference};
 pub use load::{build_protocol, load_corpus, load_protocol};
 pub use loss::{
     class_weights, record_alignment, record_alignment_ops, spectral_loss, theta_loss, LAMBDA_RECORD,
