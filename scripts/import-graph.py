@@ -5,7 +5,7 @@
     python3 scripts/import-graph.py --edges    # also prints every edge
 
 Every `use` tree and every inline path (`crate::…`, `super::…`, `self::…`,
-`pumptwin_<crate>::…`) in code (comments stripped, tests included) is resolved to the
+`pumptwin_<crate>::…`, `child_module::…`) in code (comments stripped, tests included) is resolved to the
 file that defines the longest module prefix of it. `mod x;` declarations are structure,
 not imports, and are not edges; a `pub use x::…` re-export is. A cycle is a strongly
 connected set of two or more files.
@@ -107,11 +107,32 @@ def expand(tree):
 
 
 def paths_in(text):
+    """(path, inline module stack) of every use-tree leaf and inline path."""
     code = strip_comments(text)
-    out = []
+    events = []  # (position, kind, payload)
+    for m in re.finditer(r"\bmod\s+(\w+)\s*\{", code):
+        events.append((m.end() - 1, "mod", m.group(1)))
+    for m in re.finditer(r"[{}]", code):
+        events.append((m.start(), m.group(0), None))
     for m in re.finditer(r"\buse\s+([^;]+);", code):
-        out += [re.sub(r"\s+as\s+\w+$", "", p.strip()) for p in expand(m.group(1))]
-    out += re.findall(r"\b((?:crate|super|self|pumptwin(?:_\w+)?)(?:::\w+)+)", code)
+        for p in expand(m.group(1)):
+            events.append((m.start(), "path", re.sub(r"\s+as\s+\w+$", "", p.strip())))
+    for m in re.finditer(r"(?<![:\w])((?:[a-z_][a-z0-9_]*)(?:::\w+)+)", code):
+        events.append((m.start(), "path", m.group(1)))
+    events.sort(key=lambda e: (e[0], e[1] != "mod"))
+    out, stack, depth, opened = [], [], 0, set()
+    for pos, kind, payload in events:
+        if kind == "mod":
+            stack.append((payload, depth))
+            opened.add(pos)
+        elif kind == "{":
+            depth += 1
+        elif kind == "}":
+            depth -= 1
+            while stack and stack[-1][1] == depth:
+                stack.pop()
+        else:
+            out.append((payload, [name for name, _ in stack]))
     return out
 
 
@@ -130,6 +151,9 @@ def resolve(path_str, here_src, here_mod):
         return file_of(here_src, mod + segs)
     if head in CRATES:
         return file_of(os.path.join(ROOT, CRATES[head]), segs[1:])
+    # 2018 paths: a child module of this one (`use child::Item`, `child::f()`).
+    if file_of(here_src, here_mod + [head]) not in (None, file_of(here_src, here_mod)):
+        return file_of(here_src, here_mod + segs)
     return None
 
 
@@ -146,8 +170,8 @@ def graph():
                 # `super` from `a/b.rs` is `a`.
                 mod = module_of(path, src)
                 targets = set()
-                for p in paths_in(open(path, encoding="utf-8").read()):
-                    t = resolve(p, src, mod)
+                for p, inline in paths_in(open(path, encoding="utf-8").read()):
+                    t = resolve(p, src, mod + inline)
                     if t and os.path.abspath(t) != os.path.abspath(path):
                         targets.add(os.path.relpath(t, ROOT))
                 edges[os.path.relpath(path, ROOT)] = targets

@@ -8,7 +8,8 @@
 //! | [`signature`] | phase-free comparison domains and error figures |
 //! | [`model`] | the parametric twin and its effects |
 //! | [`fit`] | eq. 10 as Levenberg–Marquardt with common random numbers |
-//! | [`residual`] | significant residual components and their tracing to effects |
+//! | [`residual`] | significant residual components and the measurements behind evidence |
+//! | [`trace`] | one tracer per kind of evidence: residual components → candidate effects |
 //! | [`closed_loop`] | the loop itself and its report |
 //! | [`generate`] | records with undeclared effects, for tests |
 //! | [`report`] | `report.json` and the PNG plots |
@@ -30,3 +31,4 @@ pub mod report;
 pub mod residual;
 pub mod signature;
 pub mod sim;
+pub mod trace;

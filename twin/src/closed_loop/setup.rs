@@ -1,0 +1,131 @@
+//! What a run of the loop fixes before its first fit: the record as compared (cut to
+//! the longest span the loop reads, AC-coupled), its dropouts, the signature settings
+//! and targets of the fit and of the residual, and the fit settings.
+
+use super::record::{ac_couple, held_runs, psd_low_edge, MAX_RMS_G};
+use super::types::{LoopConfig, LoopError, LoopInput};
+use crate::fit::{FitConfig, Target};
+use crate::model::{OperatingPoint, TwinModel};
+use crate::signature::{Signature, SignatureConfig, SignatureError};
+
+/// Relative gain that keeps the first fit iterating: its Θ are the trainer's F_map
+/// targets (`crate::physics::fit_theta`), fitted to convergence.
+const FIRST_FIT_MIN_GAIN: f32 = 1e-5;
+
+/// The run's fixed inputs.
+#[derive(Debug)]
+pub(super) struct Setup<'a> {
+    /// The loop's settings.
+    pub(super) cfg: &'a LoopConfig,
+    /// The record as compared: AC-coupled, at most `max_record_seconds` long.
+    pub(super) x: Vec<f32>,
+    /// Runs of one held value (acquisition dropouts) in the record as read.
+    pub(super) dropouts: usize,
+    /// Rate and the bearing's frequencies at the nominal speed.
+    pub(super) op: OperatingPoint,
+    /// Signature settings of the fit (eq. 10).
+    pub(super) sig_fit: SignatureConfig,
+    /// Signature settings of the residual (finer lines).
+    pub(super) sig_res: SignatureConfig,
+    /// The measurement as the fit compares it.
+    pub(super) target: Target,
+    /// The measurement as the residual compares it.
+    pub(super) target_res: Target,
+    /// The first fit's settings (trials start from them).
+    pub(super) fit_cfg: FitConfig,
+    /// Samples the model is simulated over for the residual.
+    pub(super) n_res: usize,
+    /// The record's duration, s.
+    pub(super) span_s: f64,
+}
+
+impl<'a> Setup<'a> {
+    /// Check `input` and fix what the run compares.
+    pub(super) fn new(input: &LoopInput, cfg: &'a LoopConfig) -> Result<Self, LoopError> {
+        validate(input)?;
+        let n_max = (cfg.max_record_seconds * f64::from(input.fs_hz)) as usize;
+        let record = &input.signal[..input.signal.len().min(n_max)];
+        let dropouts = input.held_runs.unwrap_or_else(|| held_runs(record));
+        let x = ac_couple(record, input.fs_hz);
+        let too_short =
+            |e: SignatureError| LoopError::Input(format!("the record is too short: {e}"));
+        let op = OperatingPoint {
+            fs_hz: input.fs_hz,
+            freqs: input.bearing.frequencies(input.rpm / 60.0),
+        };
+        let mut sig_fit = SignatureConfig::fit(input.fs_hz)
+            .for_length(x.len())
+            .map_err(too_short)?;
+        let mut sig_res = SignatureConfig::residual(input.fs_hz)
+            .for_length(x.len())
+            .map_err(too_short)?;
+        let low_edge = psd_low_edge(op.freqs.shaft, &sig_res);
+        sig_fit.psd_lo_hz = low_edge;
+        sig_res.psd_lo_hz = low_edge;
+        let target = Target::of(&x, sig_fit).map_err(|e| LoopError::Fit(e.into()))?;
+        if target.meas.rms.is_nan() || target.meas.rms > MAX_RMS_G {
+            return Err(LoopError::Input(format!(
+                "the record's RMS is {:.4e}: the bearing model works in g and no bearing housing \
+                 vibrates above {MAX_RMS_G} g RMS; a record in mg, m/s² or ADC counts must be \
+                 scaled to g (`twin loop --unit-scale`: 0.001 for mg, 0.10197 for m/s², g per count)",
+                target.meas.rms
+            )));
+        }
+        let target_res = Target::of(&x, sig_res).map_err(|e| LoopError::Fit(e.into()))?;
+        // The model is simulated over as long a span as the record it is compared with, so
+        // anything that builds up over the record (a drifting speed) is seen alike.
+        let span = |s: f64| {
+            ((s * f64::from(input.fs_hz)) as usize)
+                .min(x.len())
+                .max(2 * sig_res.env_n)
+        };
+        let fit_cfg = FitConfig {
+            n_sim: span(cfg.fit_seconds),
+            seed: cfg.seed,
+            max_iter: cfg.max_iter,
+            min_gain: FIRST_FIT_MIN_GAIN,
+            max_evaluations: usize::MAX,
+        };
+        let n_res = span(cfg.residual_seconds);
+        let span_s = x.len() as f64 / f64::from(input.fs_hz);
+        Ok(Self {
+            cfg,
+            x,
+            dropouts,
+            op,
+            sig_fit,
+            sig_res,
+            target,
+            target_res,
+            fit_cfg,
+            n_res,
+            span_s,
+        })
+    }
+
+    /// The model `m` simulated over the residual's span, and its signature.
+    pub(super) fn residual_of(&self, m: &TwinModel) -> Result<(Vec<f32>, Signature), LoopError> {
+        let y = m
+            .render(self.n_res, self.cfg.seed ^ 0x5eed)
+            .map_err(|e| LoopError::Fit(e.into()))?;
+        let s = Signature::of(&y, &self.sig_res).map_err(|e| LoopError::Fit(e.into()))?;
+        Ok((y, s))
+    }
+}
+
+/// A usable rate (from 4 kHz), a positive speed, finite samples.
+fn validate(input: &LoopInput) -> Result<(), LoopError> {
+    if !(input.fs_hz.is_finite() && input.fs_hz >= 4000.0) {
+        return Err(LoopError::Input(format!(
+            "sampling rate {} Hz: need >= 4 kHz",
+            input.fs_hz
+        )));
+    }
+    if !(input.rpm.is_finite() && input.rpm > 0.0) {
+        return Err(LoopError::Input("rpm must be > 0".into()));
+    }
+    if input.signal.iter().any(|v| !v.is_finite()) {
+        return Err(LoopError::Input("signal contains NaN or infinity".into()));
+    }
+    Ok(())
+}

@@ -1,0 +1,87 @@
+//! A washed-out defect comb: slip (random impact timing) or a speed that drifts.
+
+use super::context::{has, TraceContext};
+use crate::model::Effect;
+use crate::residual::{comb_contrast, envelope_line, Candidate, Check, Evidence};
+use crate::signature::block_within;
+
+/// Offer slip or a speed drift where the measured comb loses contrast at high
+/// orders against the model's.
+pub(super) fn trace(ctx: &TraceContext<'_>, out: &mut Vec<Candidate>) {
+    let model = ctx.model;
+    let fs = ctx.cfg.fs_hz;
+    // --- Washed-out defect comb: slip or speed drift.
+    if let Some(loc) = model.fault {
+        if !has(model, "slip") && !has(model, "speed_drift") {
+            let rate = f64::from(model.op.freqs.impact_rate(loc))
+                * (1.0 + model.get("rate_factor").unwrap_or(0.0));
+            let cm = comb_contrast(&ctx.meas_psd_db, ctx.cfg, rate);
+            let cs = comb_contrast(&ctx.sim_psd_db, ctx.cfg, rate);
+            let n = cm.len().min(cs.len());
+            if n >= 9 {
+                let delta: Vec<f32> = cm.iter().zip(&cs).map(|(a, b)| a - b).collect();
+                let low = delta[..3].iter().sum::<f32>() / 3.0;
+                let high = delta[n - n / 3..n].iter().sum::<f32>() / (n / 3) as f32;
+                // The model's own high teeth must stand out, or there is nothing to wash out.
+                let model_high = cs[n - n / 3..n].iter().sum::<f32>() / (n / 3) as f32;
+                if high - low < -4.0 && model_high > 6.0 {
+                    let band = ctx.cfg.env_band;
+                    let half = ctx.x.len() / 2;
+                    let fd = rate as f32;
+                    let h = 3.0;
+                    let n = block_within(ctx.cfg.env_n, half, 1);
+                    let f1 = envelope_line(&ctx.x[..half], fs, band, h * fd, n);
+                    let f2 = envelope_line(&ctx.x[half..], fs, band, h * fd, n);
+                    let shift = match (f1, f2) {
+                        (Some(a), Some(b)) => (b - a) / (h * fd),
+                        _ => 0.0,
+                    };
+                    // Mean defect rate over the record, relative to the kinematic one.
+                    let kin = f64::from(model.op.freqs.impact_rate(loc));
+                    let mean_factor = match (f1, f2) {
+                        (Some(a), Some(b)) => 0.5 * f64::from(a + b) / (3.0 * kin) - 1.0,
+                        _ => model.get("rate_factor").unwrap_or(0.0),
+                    };
+                    let mut figures = serde_json::Map::new();
+                    figures.insert(
+                        "comb_contrast_loss_low_orders_db".into(),
+                        serde_json::json!(low),
+                    );
+                    figures.insert(
+                        "comb_contrast_loss_high_orders_db".into(),
+                        serde_json::json!(high),
+                    );
+                    figures.insert(
+                        "relative_rate_shift_between_halves".into(),
+                        serde_json::json!(shift),
+                    );
+                    let strength = 6.0 + (low - high).min(20.0);
+                    let half_s = (half as f64 / f64::from(fs)).max(1e-3);
+                    if shift.abs() > 0.0025 {
+                        out.push(Candidate {
+                            effect: Effect::SpeedDrift { initial_per_s: f64::from(shift) / half_s, initial_rate_factor: mean_factor },
+                            evidence: Evidence {
+                                summary: format!("the defect comb loses {:.1} dB more contrast at high orders than the model, and the defect rate moves by {:+.2} % between the record's halves: the speed drifts", low - high, 100.0 * shift),
+                                components: vec![],
+                                figures,
+                            },
+                            strength,
+                            check: Check::CombContrast { rate },
+                        });
+                    } else {
+                        out.push(Candidate {
+                            effect: Effect::Slip,
+                            evidence: Evidence {
+                                summary: format!("the defect comb loses {:.1} dB more contrast at high orders than the model at a steady rate ({:+.2} % between halves): random impact timing, rolling-element slip", low - high, 100.0 * shift),
+                                components: vec![],
+                                figures,
+                            },
+                            strength,
+                            check: Check::CombContrast { rate },
+                        });
+                    }
+                }
+            }
+        }
+    }
+}

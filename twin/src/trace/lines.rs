@@ -1,0 +1,356 @@
+//! PSD lines the model lacks: mains families, shaft orders (a force through the
+//! bearing, or tones by another path), half orders, and the fallback tone.
+
+use super::context::{evidence, has, modulated_at, TraceContext, MAX_UNEXPLAINED_TONES};
+use super::impact_train::SecondTrain;
+use crate::model::{Effect, TwinModel};
+use crate::residual::{
+    on_model_comb, Candidate, Check, Component, ResidualAnalysis, MAINS_HZ, MAX_TONES,
+    TOOTH_TOL_BINS, TOOTH_TOL_REL,
+};
+
+/// Offer the PSD lines' readings (in this order: mains, shaft harmonics, shaft-order
+/// tones, half orders, one unexplained tone); `train`'s lines are its own evidence.
+pub(super) fn trace(
+    analysis: &ResidualAnalysis,
+    ctx: &TraceContext<'_>,
+    train: Option<&SecondTrain>,
+    out: &mut Vec<Candidate>,
+) {
+    let mut lines = LineTracer::new(analysis, ctx, train);
+    lines.mains(out);
+    lines.shaft_orders(out);
+    lines.half_orders(out);
+    lines.unexplained_tone(out);
+}
+
+/// The residual's PSD lines no modelled term accounts for, and which of them a
+/// reading has taken already.
+struct LineTracer<'a> {
+    model: &'a TwinModel,
+    shaft: f64,
+    df: f64,
+    lines: Vec<&'a Component>,
+    used: Vec<bool>,
+}
+
+impl<'a> LineTracer<'a> {
+    /// The PSD lines of `analysis` that are not the modelled comb's teeth, the
+    /// unmodelled load zone's sidebands, a modelled sinusoid's misfit, or `train`'s.
+    fn new(
+        analysis: &'a ResidualAnalysis,
+        ctx: &TraceContext<'a>,
+        train: Option<&SecondTrain>,
+    ) -> Self {
+        let model = ctx.model;
+        let fs = ctx.cfg.fs_hz;
+        let shaft = f64::from(model.op.freqs.shaft);
+        let df = f64::from(fs) / ctx.cfg.psd_n as f64;
+        // --- PSD lines: electrical families, shaft orders, the rest. Lines of the modelled
+        // defect's own comb (k·rate) are the fault term's, not a missing effect: a small
+        // rate mismatch moves high-order teeth by a bin and leaves ± spikes there.
+        let span_s = ctx.x.len() as f64 / f64::from(fs);
+        let on_comb = |c: &Component| on_model_comb(model, c, df, span_s);
+        // Before the model has its load zone, a rotating defect's (inner race: shaft rate;
+        // ball: cage rate) sidebands k·f_d ± m·f_mod (m = 1, 2) stand in the PSD too; they
+        // are the evidence of `load_zone_modulation` (read from the envelope), not tones. A
+        // stationary outer-race defect has no load zone to pass through.
+        let sideband = |c: &Component| {
+            let Some(loc) = model.fault else {
+                return false;
+            };
+            let fd = f64::from(model.op.freqs.impact_rate(loc))
+                * (1.0 + model.get("rate_factor").unwrap_or(0.0));
+            let fm = f64::from(model.op.freqs.modulation_rate(loc));
+            if fm <= 0.0 || modulated_at(model, fm) {
+                return false;
+            }
+            let tol = 1.5 * df + 0.001 * c.f_hz;
+            [-2.0, -1.0, 1.0, 2.0].iter().any(|m: &f64| {
+                let f = c.f_hz - m * fm;
+                let k = (f / fd).round();
+                k >= 1.0 && (f - k * fd).abs() < tol
+            })
+        };
+        // A line on a sinusoid the model already has is that term's misfit.
+        let tones = model.tone_frequencies();
+        let modelled = |c: &Component| {
+            tones
+                .iter()
+                .any(|f| (c.f_hz - f).abs() <= TOOTH_TOL_BINS * df + TOOTH_TOL_REL * c.f_hz)
+        };
+        let lines: Vec<&Component> = analysis
+            .psd
+            .iter()
+            .filter(|c| c.kind == "line" && !on_comb(c) && !sideband(c) && !modelled(c))
+            .collect();
+        let mut used = vec![false; lines.len()];
+        // A second impact train puts lines at k·r in the PSD too: those are its evidence,
+        // not unexplained tones.
+        if let Some(t) = train {
+            for (i, c) in lines.iter().enumerate() {
+                let k = (c.f_hz / t.rate_hz).round();
+                if k >= 1.0 && (c.f_hz - k * t.rate_hz).abs() < line_tol(df, c.f_hz) {
+                    used[i] = true;
+                }
+            }
+        }
+        Self {
+            model,
+            shaft,
+            df,
+            lines,
+            used,
+        }
+    }
+
+    /// How far a line may lie from a frequency and still be at it.
+    fn tol(&self, f: f64) -> f64 {
+        line_tol(self.df, f)
+    }
+
+    /// Is `c` at one of the shaft's first 40 orders?
+    fn is_order(&self, c: &Component) -> bool {
+        let k = c.order.round();
+        (1.0..=40.0).contains(&k) && (c.f_hz - k * self.shaft).abs() < self.tol(c.f_hz)
+    }
+
+    /// Where every line is also a harmonic of a mains frequency (60 Hz and 2 × 29.93 Hz
+    /// at 1796 rpm: 0.13 Hz apart), the record cannot tell the two apart; the shaft is
+    /// the reading kept, and the evidence says so.
+    fn mains_too(&self, comps: &[Component]) -> Option<f64> {
+        MAINS_HZ.into_iter().find(|&mains| {
+            comps.iter().all(|c| {
+                let k = (c.f_hz / mains).round();
+                (1.0..=20.0).contains(&k) && (c.f_hz - k * mains).abs() < self.tol(c.f_hz)
+            })
+        })
+    }
+
+    /// A family's strongest `MAX_TONES` lines, and the strongest one's excess: every
+    /// tone is a parameter the refit differentiates by simulation, and a measured record
+    /// can carry dozens of shaft-order lines (CWRU 118: 18); the weaker ones stay in the
+    /// residual for a later step.
+    fn strongest(&self, members: &[usize]) -> (Vec<Component>, f32) {
+        let mut members = members.to_vec();
+        members.sort_by(|&a, &b| self.lines[b].excess_db.total_cmp(&self.lines[a].excess_db));
+        members.truncate(MAX_TONES);
+        let comps: Vec<Component> = members.iter().map(|&i| self.lines[i].clone()).collect();
+        let strength = comps.iter().map(|c| c.excess_db).fold(0.0, f32::max);
+        (comps, strength)
+    }
+
+    /// A family of shaft-order lines: its strongest lines, their orders, the strength,
+    /// and a note when each is also a mains harmonic.
+    fn family(&self, members: &[usize]) -> (Vec<Component>, Vec<u32>, f32, String) {
+        let (comps, strength) = self.strongest(members);
+        let mut orders: Vec<u32> = comps.iter().map(|c| c.order.round() as u32).collect();
+        orders.sort_unstable();
+        orders.dedup();
+        let note = self.mains_too(&comps).map_or(String::new(), |mains| {
+            format!("; each is also a harmonic of {mains} Hz mains, which this speed and resolution cannot tell from the shaft's orders")
+        });
+        (comps, orders, strength, note)
+    }
+
+    /// A mains family: the fundamental or a low harmonic of 50 or 60 Hz, two lines at
+    /// least off the shaft's orders.
+    fn mains(&mut self, out: &mut Vec<Candidate>) {
+        let model = self.model;
+        if !has(model, "line_interference") {
+            for mains in MAINS_HZ {
+                let members: Vec<usize> = (0..self.lines.len())
+                    .filter(|&i| {
+                        let k = (self.lines[i].f_hz / mains).round();
+                        (1.0..=20.0).contains(&k)
+                            && (self.lines[i].f_hz - k * mains).abs() < self.tol(self.lines[i].f_hz)
+                    })
+                    .collect();
+                let not_shaft = members
+                    .iter()
+                    .filter(|&&i| !self.is_order(self.lines[i]))
+                    .count();
+                // Mains interference carries its fundamental or its low harmonics (the 3rd
+                // of a rectifier's or a saturated transformer's current), and two of its
+                // lines at least must not be shaft orders: among the dozens of lines a
+                // measured record carries, a single 50 Hz multiple off the shaft's orders is
+                // a coincidence (CWRU 118, a 60 Hz rig: 150, 250, 450 and 750 Hz).
+                let low = members
+                    .iter()
+                    .any(|&i| (self.lines[i].f_hz / mains).round() <= 3.0);
+                if low && not_shaft >= 2 {
+                    let comps: Vec<Component> =
+                        members.iter().map(|&i| self.lines[i].clone()).collect();
+                    members.iter().for_each(|&i| self.used[i] = true);
+                    let strength = comps.iter().map(|c| c.excess_db).fold(0.0, f32::max);
+                    let freqs: Vec<f64> = members
+                        .iter()
+                        .map(|&i| (self.lines[i].f_hz / mains).round() * mains)
+                        .collect();
+                    out.push(Candidate {
+                        effect: Effect::LineInterference { freqs: freqs.clone() },
+                        evidence: evidence(
+                            format!("{} line(s) at multiples of {mains} Hz ({:?} Hz), {not_shaft} of them not shaft-synchronous", comps.len(), freqs),
+                            comps,
+                        ),
+                        strength,
+                        check: Check::Lines,
+                    });
+                    break;
+                }
+            }
+        }
+    }
+
+    /// Lines at shaft orders: a force through the bearing (to 12.5×) and, weaker, tones
+    /// by another path.
+    fn shaft_orders(&mut self, out: &mut Vec<Candidate>) {
+        let (model, shaft) = (self.model, self.shaft);
+        // Lines at shaft orders. Up to 12× they are first offered as a force through the
+        // bearing (unbalance, misalignment: `shaft_harmonics`); every order line (to 40×)
+        // is also offered, weaker, as tones that reach the sensor by another path
+        // (`shaft_order_tones`: a pump's vane pass, a mesh), so when the force is rejected —
+        // its Hertzian contact modulates the impacts at the tone's rate, and a measurement
+        // whose envelope lacks that says the tone never loaded the bearing — the tones get
+        // their turn in the same round. Lines above 12× go to the tones alone.
+        let order_lines: Vec<usize> = (0..self.lines.len())
+            .filter(|&i| !self.used[i] && self.is_order(self.lines[i]))
+            .collect();
+        let force: Vec<usize> = order_lines
+            .iter()
+            .copied()
+            .filter(|&i| self.lines[i].order < 12.5)
+            .collect();
+        if !force.is_empty() && !has(model, "shaft_harmonics") {
+            force.iter().for_each(|&i| self.used[i] = true);
+            let (comps, orders, strength, note) = self.family(&force);
+            out.push(Candidate {
+                effect: Effect::ShaftHarmonics {
+                    orders: orders.clone(),
+                },
+                evidence: evidence(
+                    format!("line(s) at shaft orders {orders:?} (f_r = {shaft:.2} Hz): a force at the shaft's orders through the bearing (unbalance, misalignment){note}"),
+                    comps,
+                ),
+                strength,
+                check: Check::Lines,
+            });
+        }
+        if !order_lines.is_empty() && !has(model, "shaft_order_tones") {
+            let offered_as_force =
+                order_lines.iter().any(|i| force.contains(i)) && !has(model, "shaft_harmonics");
+            order_lines.iter().for_each(|&i| self.used[i] = true);
+            let (comps, orders, strength, note) = self.family(&order_lines);
+            out.push(Candidate {
+                effect: Effect::ShaftOrderTones {
+                    orders: orders.clone(),
+                },
+                evidence: evidence(
+                    format!("line(s) at shaft orders {orders:?} (f_r = {shaft:.2} Hz) as tones that do not load the bearing: a vane or blade pass (vanes x shaft rate), a coupling's or gear's mesh{}{note}", if offered_as_force { ", the alternative to a force through the bearing" } else { "" }),
+                    comps,
+                ),
+                // Below the force, so that the force is tried first.
+                strength: if offered_as_force { strength - 1.0 } else { strength },
+                check: Check::Lines,
+            });
+        }
+    }
+
+    /// Lines at half orders: a force repeating every second turn.
+    fn half_orders(&mut self, out: &mut Vec<Candidate>) {
+        let (model, shaft) = (self.model, self.shaft);
+        // Lines at half orders (k + ½)·f_r up to 12.5×, two or more of them: a force that
+        // repeats every second turn — a loose seat or mount, a rub. One such line alone is
+        // left to the fallback (a tone that happens to sit there).
+        if !has(model, "half_orders") {
+            let members: Vec<usize> = (0..self.lines.len())
+                .filter(|&i| {
+                    let c = self.lines[i];
+                    let h = (c.order - 0.5).round() + 0.5;
+                    !self.used[i]
+                        && (0.5..=12.5).contains(&h)
+                        && (c.f_hz - h * shaft).abs() < self.tol(c.f_hz)
+                })
+                .collect();
+            if members.len() >= 2 {
+                members.iter().for_each(|&i| self.used[i] = true);
+                let (comps, strength) = self.strongest(&members);
+                let mut orders: Vec<f64> = comps
+                    .iter()
+                    .map(|c| (c.order - 0.5).round() + 0.5)
+                    .collect();
+                orders.sort_by(f64::total_cmp);
+                out.push(Candidate {
+                    effect: Effect::HalfOrders {
+                        orders: orders.clone(),
+                    },
+                    evidence: evidence(
+                        format!("line(s) at half orders {orders:?} of the shaft (f_r = {shaft:.2} Hz): a force repeating every second turn, mechanical looseness of the bearing's seat or mount, or a rub"),
+                        comps,
+                    ),
+                    strength,
+                    check: Check::Lines,
+                });
+            }
+        }
+    }
+
+    /// The strongest line left: a tone nobody declared, named where it can be (a mesh
+    /// or pass frequency, the cage rate, a sub-synchronous whirl).
+    fn unexplained_tone(&self, out: &mut Vec<Candidate>) {
+        let (model, shaft, df) = (self.model, self.shaft, self.df);
+        if model.effects_of("unexplained_periodic").len() < MAX_UNEXPLAINED_TONES {
+            if let Some(i) = (0..self.lines.len())
+                .filter(|&i| !self.used[i])
+                .max_by(|&a, &b| self.lines[a].excess_db.total_cmp(&self.lines[b].excess_db))
+            {
+                let c = self.lines[i].clone();
+                // Shaft orders above 12 are not the shaft-harmonics effect (unbalance,
+                // misalignment): a line there is a mesh or pass frequency (teeth, vanes or
+                // blades times the shaft rate), which the loop says rather than "no order".
+                let on_any_order = {
+                    let k = c.order.round();
+                    k >= 1.0 && (c.f_hz - k * shaft).abs() < 0.75 * df
+                };
+                let ftf = f64::from(model.op.freqs.ftf);
+                let what = if self.is_order(&c) || on_any_order {
+                    format!("shaft order {} (above the 1-12x of unbalance and misalignment: a mesh or vane/blade-pass frequency, teeth or vanes x shaft rate), no electrical line or defect rate", c.order.round())
+                } else if (c.f_hz - ftf).abs() < self.tol(c.f_hz).max(0.01 * ftf) {
+                    // Whirl (0.42-0.48x) and the cage (about 0.4x) lie a bin or less apart at
+                    // a short record's resolution: say so rather than pick one.
+                    let whirl = (0.42 * shaft - self.tol(c.f_hz)..=0.48 * shaft + self.tol(c.f_hz))
+                        .contains(&c.f_hz);
+                    format!(
+                        "at the cage rate (FTF {ftf:.2} Hz): the cage turning out of balance or worn, a force the bearing model does not have{}",
+                        if whirl { format!("; or a sub-synchronous whirl of a seal or journal (0.42-0.48x), which this resolution ({:.1} Hz) cannot tell from it", self.tol(c.f_hz)) } else { String::new() }
+                    )
+                } else if c.order < 1.0 {
+                    "below the shaft rate, matching no cage rate or electrical line: sub-synchronous (a seal's or journal's fluid whirl at 0.42-0.48x, a pump's rotating stall, a belt's rate)".to_string()
+                } else {
+                    "matching no shaft order, electrical line or defect rate".to_string()
+                };
+                out.push(Candidate {
+                    effect: Effect::UnexplainedPeriodic {
+                        f_hz: c.f_hz,
+                        order: c.order,
+                    },
+                    evidence: evidence(
+                        format!(
+                            "line at {:.1} Hz = {:.3} x shaft, {:.1} dB above the floor, {what}",
+                            c.f_hz, c.order, c.excess_db
+                        ),
+                        vec![c.clone()],
+                    ),
+                    strength: c.excess_db - 3.0,
+                    check: Check::Lines,
+                });
+            }
+        }
+    }
+}
+
+/// Line frequencies are interpolated between bins (significant_components): three
+/// quarters of a bin, or 0.4 % for the speed's own uncertainty at high orders.
+fn line_tol(df: f64, f: f64) -> f64 {
+    (0.75 * df).max(0.004 * f)
+}

@@ -1,0 +1,56 @@
+//! Step 3 of the loop: trace the residual's significant components to the effects the
+//! model lacks, one tracer per kind of evidence, each offering candidates with their
+//! evidence and a strength that orders them.
+//!
+//! | tracer | reads | offers |
+//! |---|---|---|
+//! | [`lines`] | PSD lines | mains, shaft harmonics, shaft-order tones, half orders, an unexplained tone |
+//! | [`bands`] | PSD bands, the band-limited kurtosis | a structural mode, a band at the sensor, random bursts, random impacts |
+//! | [`modulation`] | envelope sidebands | a load-zone (or other) modulation of the impacts |
+//! | [`impact_train`] | envelope harmonic families | a second impact train |
+//! | [`comb`] | the defect comb's contrast by order | slip, speed drift |
+//! | [`stiffness`] | ring-down frequencies | nonlinear stiffness |
+//!
+//! [`context`] holds what they all read. Tracers never import one another but for the
+//! second train, whose PSD lines the line tracer leaves to it.
+
+pub mod bands;
+pub mod comb;
+pub mod context;
+pub mod impact_train;
+pub mod lines;
+pub mod modulation;
+pub mod stiffness;
+
+pub use context::TraceContext;
+pub use impact_train::{second_train, SecondTrain};
+pub use modulation::{measured_modulation, MeasuredModulation};
+
+use crate::residual::{Candidate, ResidualAnalysis};
+use context::has;
+
+/// Trace the residual to candidate effects the model lacks (strongest first; equal
+/// strengths keep the tracers' order).
+pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candidate> {
+    let model = ctx.model;
+    let span_s = ctx.x.len() as f64 / f64::from(ctx.cfg.fs_hz);
+    // A second impact train puts lines at k·r in the PSD too: read first, so that the
+    // line tracer leaves them to it.
+    let train = if has(model, "second_impact_train") {
+        None
+    } else {
+        second_train(analysis, model, ctx.cfg, &ctx.meas_psd_db, span_s)
+    };
+    let mut out: Vec<Candidate> = Vec::new();
+    lines::trace(analysis, ctx, train.as_ref(), &mut out);
+    bands::trace(analysis, ctx, &mut out);
+    bands::trace_random_impacts(ctx, &mut out);
+    modulation::trace(analysis, ctx, &mut out);
+    if let Some(t) = train {
+        impact_train::candidate(t, ctx, &mut out);
+    }
+    comb::trace(ctx, &mut out);
+    stiffness::trace(ctx, &mut out);
+    out.sort_by(|a, b| b.strength.total_cmp(&a.strength));
+    out
+}

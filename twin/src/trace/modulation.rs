@@ -1,0 +1,245 @@
+//! Modulations of the impacts: the load zone at a kinematic rate, or a rate read off
+//! the envelope's sidebands.
+
+use super::context::{
+    evidence, load_zone_line, modulated_at, modulation_rates, TraceContext, MAX_MODULATIONS,
+    NAMED_RATE_TOLERANCE,
+};
+use crate::model::Effect;
+use crate::residual::{
+    band_envelope_spectrum, Candidate, Check, Component, Evidence, ResidualAnalysis,
+};
+use crate::signature::{block_within, to_db};
+use pumptwin_core::bearing::DefectLocation;
+use pumptwin_core::features::peak_frequency;
+
+/// An amplitude modulation of the impacts read off the residual's envelope.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeasuredModulation {
+    /// Modulation rate, Hz: the envelope line's frequency.
+    pub rate_hz: f64,
+    /// Sidebands `k·f_d ± rate` (k ≤ 5) matched.
+    pub sidebands: usize,
+    /// The line at the rate, then its sidebands.
+    pub lines: Vec<Component>,
+}
+
+/// Fewest sidebands `k·f_d ± f_m` that make a low envelope line a modulation rate.
+pub const MIN_MODULATION_SIDEBANDS: usize = 3;
+
+/// The impacts' modulation rate as the residual's envelope shows it, where it need
+/// not be a kinematic one. A product of the impact train (comb `k·f_d`) and a slow
+/// modulation at `f_m` has envelope lines at `f_m` itself and at `k·f_d ± f_m`; a sum
+/// of two sources (a second train, a tone) has no such sidebands, so the pattern —
+/// a line below `f_d / 2` and at least [`MIN_MODULATION_SIDEBANDS`] sidebands at its
+/// spacing — names a modulation and reads its rate. Candidate rates are the envelope
+/// lines below `f_d / 2`, and the residual's rise at its low edge (`below_band`: a
+/// rate of one or two envelope bins, where the Welch block cannot tell it from DC),
+/// each read again by `refine` (on a longer block; the sidebands themselves sit a bin
+/// or two from comb teeth, where the tooth's own lobe pulls their peaks outward, so
+/// their spacing overstates the rate). Rates within 1.5 envelope bins of one in
+/// `known` (the kinematic rate, the shaft) are left to the kinematic reading.
+/// A sideband lies within 1.5 bins or 1 % of `k·f_d ± f_m` and more than `f_m / 2`
+/// from the tooth (a tooth is not its own sideband); a rate under two bins puts its
+/// sidebands inside the tooth's lobe, and the residual's peaks then sit at the lobe's
+/// flanks, up to 1.5 bins outside `± f_m`.
+pub fn measured_modulation(
+    envelope: &[Component],
+    fd: f64,
+    known: &[f64],
+    dfe: f64,
+    refine: impl Fn(f64) -> Option<f64>,
+) -> Option<MeasuredModulation> {
+    let lines: Vec<&Component> = envelope.iter().filter(|c| c.kind == "line").collect();
+    envelope
+        .iter()
+        .filter(|c| matches!(c.kind, "line" | "below_band") && c.f_hz < 0.5 * fd)
+        .filter_map(|low| {
+            let fm = refine(low.f_hz).unwrap_or(low.f_hz);
+            if known.iter().any(|k| (fm - k).abs() <= 1.5 * dfe) {
+                return None;
+            }
+            let side: Vec<Component> = lines
+                .iter()
+                .filter(|c| c.f_hz > 0.5 * fd)
+                .filter(|c| {
+                    let tol = (1.5 * dfe).max(0.01 * c.f_hz);
+                    (1..=5).any(|k| {
+                        let off = (c.f_hz - f64::from(k) * fd).abs();
+                        off > 0.5 * fm && (off - fm).abs() < tol
+                    })
+                })
+                .map(|c| (*c).clone())
+                .collect();
+            (side.len() >= MIN_MODULATION_SIDEBANDS).then(|| MeasuredModulation {
+                rate_hz: fm,
+                sidebands: side.len(),
+                lines: std::iter::once((*low).clone()).chain(side).collect(),
+            })
+        })
+        .max_by(|a, b| {
+            a.sidebands
+                .cmp(&b.sidebands)
+                .then(a.lines[0].excess_db.total_cmp(&b.lines[0].excess_db))
+        })
+}
+
+/// Offer a modulation of the impacts (up to [`MAX_MODULATIONS`]): read off the
+/// envelope's sidebands, or at the kinematic rate.
+pub(super) fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>, out: &mut Vec<Candidate>) {
+    let model = ctx.model;
+    let fs = ctx.cfg.fs_hz;
+    let shaft = f64::from(model.op.freqs.shaft);
+    // --- Envelope: modulation sidebands k·f_d ± m·f_mod.
+    // Up to two: the load zone the defect turns through and a load that varies at a
+    // rate of its own (a process pulsation on an inner-race fault) multiply the same
+    // impacts; a second is read at a rate the model does not modulate at yet.
+    let modulations = modulation_rates(model).len();
+    if let (Some(loc), true) = (model.fault, modulations < MAX_MODULATIONS) {
+        let fd = f64::from(model.op.freqs.impact_rate(loc));
+        let fm = f64::from(model.op.freqs.modulation_rate(loc));
+        let fm = if fm > 0.0 { fm } else { shaft };
+        let fd = fd * (1.0 + model.get("rate_factor").unwrap_or(0.0));
+        let dfe = f64::from(fs) / ctx.cfg.env_n as f64;
+        let side: Vec<Component> = analysis
+            .envelope
+            .iter()
+            .filter(|c| c.kind == "line")
+            .filter(|c| load_zone_line(c.f_hz, fd, fm, (2.0 * dfe).max(0.01 * c.f_hz)))
+            .cloned()
+            .collect();
+        let kinematic = !modulated_at(model, fm)
+            && (!side.is_empty() && loc != DefectLocation::OuterRace || side.len() >= 2);
+        // A slow rate read again on the longest block the record holds (4 s at 12 kHz:
+        // 0.37 Hz bins against the Welch block's 1.46 Hz), within a residual bin of
+        // where the residual put it and three long bins clear of DC.
+        let n_long = block_within(1 << 17, ctx.x.len(), 1);
+        // In dB: a parabola through a Hann line's log levels finds its centre to a few
+        // hundredths of a bin; through its powers, to a fifth. Computed only when a
+        // candidate rate asks for it (most rounds have none).
+        let long = std::cell::OnceCell::new();
+        let refine = |f0: f64| -> Option<f64> {
+            let (spec, dfl) = long
+                .get_or_init(|| {
+                    band_envelope_spectrum(
+                        ctx.x,
+                        fs,
+                        ctx.cfg.env_band.lo_hz,
+                        ctx.cfg.env_band.hi_hz,
+                        n_long,
+                    )
+                    .map(|(spec, dfl)| (to_db(&spec, &spec), dfl))
+                })
+                .as_ref()?;
+            let lo = (f0 - dfe).max(3.0 * f64::from(*dfl));
+            let f = peak_frequency(spec, fs, lo as f32, (f0 + dfe) as f32).ok()?;
+            Some(f64::from(f))
+        };
+        let mut known = vec![fm, shaft];
+        known.extend(modulation_rates(model));
+        let measured = measured_modulation(&analysis.envelope, fd, &known, dfe, refine)
+            .filter(|m| !kinematic || m.sidebands > side.len());
+        if let Some(m) = measured {
+            let strength = m.lines.iter().map(|c| c.excess_db).fold(0.0, f32::max);
+            let ftf = f64::from(model.op.freqs.ftf);
+            let bsf = f64::from(model.op.freqs.bsf);
+            let near = |f: f64| (m.rate_hz - f).abs() < (1.5 * dfe).max(NAMED_RATE_TOLERANCE * f);
+            // A whole multiple of a rate the bearing or the shaft has: the load zone a
+            // rotating defect passes is narrower than a turn, so it modulates the
+            // impacts at the harmonics of its rate too (its shape, not a new load); on
+            // a stationary outer-race defect, a load that turns with the shaft does.
+            let rotating = loc != DefectLocation::OuterRace;
+            let multiple = |f: f64| (2..=4).find(|&k| near(f64::from(k) * f));
+            let source = if near(ftf) {
+                "the cage rate: the load zone turns with the cage (a cage or rolling-element defect, or a cage that slips)".to_string()
+            } else if let Some(k) = multiple(fm).filter(|_| rotating) {
+                format!("{k} x the load zone's rate ({fm:.2} Hz): the load zone's shape, a zone of load narrower than a turn that modulates the impacts at the harmonics of its rate too")
+            } else if near(bsf) {
+                format!("{:.3} x shaft, the rolling elements' spin rate (BSF, {bsf:.1} Hz): the load varies as an element spins (an element of uneven size or surface)", m.rate_hz / shaft)
+            } else if let Some(k) = multiple(shaft) {
+                format!("{k} x the shaft rate: a load that turns with the shaft (an unbalance, a bent shaft, a misalignment) and modulates the impacts at its orders")
+            } else {
+                format!(
+                    "{:.3} x shaft, no rate of the bearing or the shaft: the load on the bearing varies at this rate (a process pulsation, a beat with a machine running at a nearly equal speed, a belt or a foundation's rocking)",
+                    m.rate_hz / shaft
+                )
+            };
+            let mut figures = serde_json::Map::new();
+            figures.insert("sidebands".into(), serde_json::json!(m.sidebands));
+            figures.insert("kinematic_rate_hz".into(), serde_json::json!(fm));
+            out.push(Candidate {
+                effect: Effect::LoadZoneModulation { mod_hz: m.rate_hz },
+                evidence: Evidence {
+                    summary: format!(
+                        "an envelope line at {:.2} Hz and {} sideband(s) k·{fd:.1} ± {:.2} Hz around the modelled comb: the impacts are amplitude-modulated at {:.2} Hz = {source}",
+                        m.rate_hz, m.sidebands, m.rate_hz, m.rate_hz
+                    ),
+                    components: m.lines,
+                    figures,
+                },
+                strength,
+                check: Check::Lines,
+            });
+        } else if kinematic {
+            let strength = side.iter().map(|c| c.excess_db).fold(0.0, f32::max);
+            out.push(Candidate {
+                effect: Effect::LoadZoneModulation { mod_hz: fm },
+                evidence: evidence(format!("{} envelope line(s) at k·{fd:.1} ± m·{fm:.2} Hz sidebands or at m·{fm:.2} Hz: the impacts are amplitude-modulated", side.len()), side),
+                strength,
+                check: Check::Lines,
+            });
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn line(f_hz: f64) -> Component {
+        Component {
+            domain: "envelope",
+            kind: "line",
+            f_hz,
+            width_hz: 1.46,
+            excess_db: 12.0,
+            order: f_hz / 29.95,
+            centre_hz: None,
+        }
+    }
+
+    const FD: f64 = 107.4;
+    const DFE: f64 = 1.46;
+
+    /// A product (the comb modulated at 4.1 Hz) has its rate and sidebands on both
+    /// sides of each tooth; the rate is read from the low line, refined.
+    #[test]
+    fn a_product_of_comb_and_slow_rate_is_a_modulation() {
+        let mut env = vec![line(4.05)];
+        for k in 1..=3 {
+            let tooth = f64::from(k) * FD;
+            env.extend([line(tooth - 4.4), line(tooth + 4.3)]);
+        }
+        let m =
+            measured_modulation(&env, FD, &[29.95], DFE, |f| Some(f + 0.05)).expect("a modulation");
+        assert!((m.rate_hz - 4.1).abs() < 1e-9, "{}", m.rate_hz);
+        assert_eq!((m.sidebands, m.lines.len()), (6, 7));
+    }
+
+    /// A sum has no sidebands: a low line beside an unrelated train's harmonics (a
+    /// second source at 47 Hz) is no modulation, nor is a low line at the shaft rate
+    /// (the kinematic reading's), nor sidebands without the low line.
+    #[test]
+    fn a_sum_or_a_known_rate_is_not_a_measured_modulation() {
+        let sum: Vec<Component> = [4.1, 47.0, 94.0, 141.0, 188.0].map(line).to_vec();
+        assert!(measured_modulation(&sum, FD, &[29.95], DFE, |_| None).is_none());
+        let mut shaft = vec![line(29.9)];
+        for k in 1..=3 {
+            let tooth = f64::from(k) * FD;
+            shaft.extend([line(tooth - 29.95), line(tooth + 29.95)]);
+        }
+        assert!(measured_modulation(&shaft, FD, &[29.95], DFE, |_| None).is_none());
+        let no_low: Vec<Component> = shaft[1..].to_vec();
+        assert!(measured_modulation(&no_low, FD, &[29.95], DFE, |_| None).is_none());
+    }
+}

@@ -1,0 +1,47 @@
+//! Nonlinear stiffness: ring-downs whose frequency falls as they decay.
+
+use super::context::{has, TraceContext};
+use crate::model::Effect;
+use crate::residual::{ringdown_frequencies, Candidate, Check, Evidence};
+
+/// Offer nonlinear stiffness where ring-downs start faster than they end, more
+/// than the model's do.
+pub(super) fn trace(ctx: &TraceContext<'_>, out: &mut Vec<Candidate>) {
+    let model = ctx.model;
+    let fs = ctx.cfg.fs_hz;
+    // --- Amplitude-dependent resonance frequency: nonlinear stiffness.
+    if !has(model, "nonlinear_stiffness") {
+        let fn_hz = model.get("ln_fn_hz").map_or(3000.0, f64::exp) as f32;
+        let (lo, hi) = (0.75 * fn_hz, (1.25 * fn_hz).min(0.45 * fs));
+        let rate = model
+            .fault
+            .map_or(0.0, |loc| model.op.freqs.impact_rate(loc));
+        if let (true, Some((mh, mm)), Some((sh, sm))) = (
+            rate > 0.0,
+            ringdown_frequencies(ctx.x, fs, lo, hi, rate),
+            ringdown_frequencies(ctx.sim, fs, lo, hi, rate),
+        ) {
+            let meas_shift = mh / mm - 1.0;
+            let model_shift = sh / sm - 1.0;
+            if meas_shift - model_shift > 0.01 {
+                let mut figures = serde_json::Map::new();
+                figures.insert("ringdown_early_hz".into(), serde_json::json!(mh));
+                figures.insert("ringdown_late_hz".into(), serde_json::json!(mm));
+                figures.insert(
+                    "model_relative_shift".into(),
+                    serde_json::json!(model_shift),
+                );
+                out.push(Candidate {
+                    effect: Effect::NonlinearStiffness { initial_rel_shift: f64::from(meas_shift - model_shift) },
+                    evidence: Evidence {
+                        summary: format!("ring-downs near {fn_hz:.0} Hz start {:.1} % faster than they end (model: {:.1} %): the stiffness hardens with amplitude", 100.0 * meas_shift, 100.0 * model_shift),
+                        components: vec![],
+                        figures,
+                    },
+                    strength: 6.0 + 300.0 * (meas_shift - model_shift),
+                    check: Check::Ringdown { lo, hi, rate },
+                });
+            }
+        }
+    }
+}
