@@ -3,6 +3,7 @@
 //! terms), not from the twin's model, and the loop is handed only the signal, the
 //! sampling rate, the nominal speed and the bearing: it never sees these settings.
 
+use crate::model::EffectKind;
 use crate::sim::{simulate, ExtraTerms, OutputBursts, SensorSpec, SimError, SimulationSpec, G};
 use pumptwin_core::bearing::DefectLocation;
 use pumptwin_core::excitation::ImpactTrain;
@@ -69,23 +70,25 @@ impl Injected {
         Injected::Cavitation,
     ];
 
-    /// The effect name the loop should report.
-    pub fn expected_effect(self) -> Option<&'static str> {
+    /// The effect the loop should report.
+    pub fn expected_effect(self) -> Option<EffectKind> {
         match self {
             Injected::None => None,
-            Injected::ShaftHarmonics => Some("shaft_harmonics"),
-            Injected::LoadZoneModulation => Some("load_zone_modulation"),
-            Injected::Slip => Some("slip"),
-            Injected::ExtraResonance => Some("extra_resonance"),
-            Injected::LineInterference => Some("line_interference"),
-            Injected::SpeedDrift => Some("speed_drift"),
-            Injected::NonlinearStiffness => Some("nonlinear_stiffness"),
-            Injected::UnknownPeriodic => Some("unexplained_periodic"),
-            Injected::SecondDefect | Injected::UnknownImpacts => Some("second_impact_train"),
-            Injected::VanePass => Some("shaft_order_tones"),
-            Injected::Looseness => Some("half_orders"),
-            Injected::NoiseBand => Some("unexplained_band"),
-            Injected::Cavitation => Some("random_bursts"),
+            Injected::ShaftHarmonics => Some(EffectKind::ShaftHarmonics),
+            Injected::LoadZoneModulation => Some(EffectKind::LoadZoneModulation),
+            Injected::Slip => Some(EffectKind::Slip),
+            Injected::ExtraResonance => Some(EffectKind::ExtraResonance),
+            Injected::LineInterference => Some(EffectKind::LineInterference),
+            Injected::SpeedDrift => Some(EffectKind::SpeedDrift),
+            Injected::NonlinearStiffness => Some(EffectKind::NonlinearStiffness),
+            Injected::UnknownPeriodic => Some(EffectKind::UnexplainedPeriodic),
+            Injected::SecondDefect | Injected::UnknownImpacts => {
+                Some(EffectKind::SecondImpactTrain)
+            }
+            Injected::VanePass => Some(EffectKind::ShaftOrderTones),
+            Injected::Looseness => Some(EffectKind::HalfOrders),
+            Injected::NoiseBand => Some(EffectKind::UnexplainedBand),
+            Injected::Cavitation => Some(EffectKind::RandomBursts),
         }
     }
 }

@@ -6,7 +6,8 @@
 //! | module | step |
 //! |---|---|
 //! | [`signature`] | phase-free comparison domains and error figures |
-//! | [`model`] | the parametric twin and its effects |
+//! | [`model`] | the parametric twin |
+//! | [`effect`] | the effects the loop can add to it |
 //! | [`fit`] | eq. 10 as Levenberg–Marquardt with common random numbers |
 //! | [`residual`] | significant residual components and the measurements behind evidence |
 //! | [`trace`] | one tracer per kind of evidence: residual components → candidate effects |
@@ -23,6 +24,7 @@
 #![forbid(unsafe_code)]
 
 pub mod closed_loop;
+pub mod effect;
 pub mod fit;
 pub mod generate;
 pub mod model;

@@ -26,6 +26,8 @@
 //! | `unexplained_band` | output-side band-limited noise (2nd-order resonator) at f, bandwidth B | ln level |
 //! | `second_impact_train` | a second impact train in the force at its own rate (a second defect, a rub, a struck part): same structure, its own level; a second inner-race or ball defect modulated by its load zone (shaft or cage rate) | ln A₂, logit δ₂ (inner race, ball) |
 
+pub use crate::effect::{fault_name, Effect, EffectKind, BURST_LOG_SIGMA, BURST_START_RATE_HZ};
+use crate::effect::{Start, X_REF_M};
 use crate::sim::G;
 use pumptwin_core::bearing::{DefectFrequencies, DefectLocation};
 use pumptwin_core::excitation::{
@@ -44,305 +46,6 @@ const WARMUP_S: f64 = 0.1;
 pub const OVERSAMPLE: usize = 4;
 /// Impact width σ, s (broadband to ≈ 8 kHz, beyond the band limit).
 pub const IMPACT_SIGMA_S: f64 = 2.0e-5;
-/// Reference displacement for the cubic stiffness parameter, m.
-const X_REF_M: f64 = 1.0e-6;
-
-/// An effect the loop can add to the model.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
-#[serde(tag = "effect", rename_all = "snake_case")]
-pub enum Effect {
-    /// Force sinusoids at these shaft orders.
-    ShaftHarmonics {
-        /// Orders k of k·f_r.
-        orders: Vec<u32>,
-    },
-    /// Force sinusoids at half orders of the shaft rate (0.5×, 1.5×, 2.5×, …): mechanical
-    /// looseness of the bearing's seat or mount, or a rub — the rotor lifts and settles,
-    /// or strikes, once every two turns, so the force repeats every second turn. It
-    /// acts through the bearing, like [`Effect::ShaftHarmonics`].
-    HalfOrders {
-        /// Orders k + ½ of (k + ½)·f_r.
-        orders: Vec<f64>,
-    },
-    /// Output-side sinusoids at these shaft orders: tones locked to the shaft that reach
-    /// the sensor by another path than the bearing's rolling contact (a pump impeller's
-    /// vane pass, a coupling's or a gear's mesh), so they do not load the rolling
-    /// elements and leave the impacts unmodulated. The force-side
-    /// [`Effect::ShaftHarmonics`] puts a large low-order force through the contact's
-    /// Hertzian stiffness and modulates the impacts at its rate; a measurement whose
-    /// envelope carries no such modulation rejects it, and these tones are the
-    /// alternative the loop then tries.
-    ShaftOrderTones {
-        /// Orders k of k·f_r.
-        orders: Vec<u32>,
-    },
-    /// Amplitude modulation of the impacts at `mod_hz`.
-    LoadZoneModulation {
-        /// Modulation frequency, Hz (shaft rate for inner race, cage rate for balls).
-        mod_hz: f64,
-    },
-    /// Random impact timing.
-    Slip,
-    /// Linear speed drift over the record.
-    SpeedDrift {
-        /// Starting value of the drift (fraction per second), from the evidence.
-        initial_per_s: f64,
-        /// Starting mean-rate factor (`mean rate / kinematic − 1`), from the evidence.
-        initial_rate_factor: f64,
-    },
-    /// A second structural mode near `f_hz`.
-    ExtraResonance {
-        /// Initial natural frequency, Hz.
-        f_hz: f64,
-    },
-    /// Cubic (hardening) stiffness.
-    NonlinearStiffness {
-        /// Measured excess of the ring-down start frequency over its end (fraction).
-        initial_rel_shift: f64,
-    },
-    /// Electrical lines at these frequencies (output side).
-    LineInterference {
-        /// Line frequencies, Hz.
-        freqs: Vec<f64>,
-    },
-    /// An output-side sinusoid nobody declared.
-    UnexplainedPeriodic {
-        /// Frequency, Hz.
-        f_hz: f64,
-        /// `f_hz / f_r`.
-        order: f64,
-    },
-    /// A second train of impacts in the radial force at `rate_hz`: a compound fault
-    /// (the bearing's other defect rates), impacts once per turn (a rub) or from a
-    /// source the bearing's kinematics do not name. It excites the same structure as
-    /// the modelled defect, so it is a force term, not an output-side one.
-    SecondImpactTrain {
-        /// Impact rate, Hz (from the residual's envelope lines, refined on the PSD comb).
-        rate_hz: f64,
-        /// What the rate matches: `inner_race`, `outer_race`, `ball`, `shaft` (once per
-        /// turn), `shaft_synchronous` (k impacts per turn) or `unexplained`.
-        source: String,
-    },
-    /// Output-side band noise nobody declared.
-    UnexplainedBand {
-        /// Centre, Hz.
-        f_hz: f64,
-        /// −3 dB bandwidth, Hz.
-        bandwidth_hz: f64,
-    },
-    /// Ring-downs at random times added at the sensor: impacts at no rate of the
-    /// machine — the collapse of vapour bubbles in a cavitating pump, debris carried
-    /// through it, a loose part struck at random — each ringing a casing mode of its
-    /// own, not the bearing's structure. A Poisson process of bursts
-    /// `a_i·e^{−π·B·t}·sin 2π f t` (mean rate λ, amplitudes log-normal about `a`, σ = 0.5).
-    /// Its spectrum is a band like [`Effect::UnexplainedBand`]'s (shot noise tends to
-    /// Gaussian noise as λ grows); what sets it apart is impulsiveness: at a rate of
-    /// tens per second the band is carried by isolated bursts, and the fit reads λ from
-    /// the record's kurtosis and envelope as much as from its spectrum.
-    RandomBursts {
-        /// Initial ring frequency, Hz.
-        f_hz: f64,
-        /// Initial −3 dB bandwidth, Hz.
-        bandwidth_hz: f64,
-    },
-}
-
-impl Effect {
-    /// The effect's name in reports.
-    pub fn name(&self) -> &'static str {
-        match self {
-            Effect::ShaftHarmonics { .. } => "shaft_harmonics",
-            Effect::ShaftOrderTones { .. } => "shaft_order_tones",
-            Effect::HalfOrders { .. } => "half_orders",
-            Effect::LoadZoneModulation { .. } => "load_zone_modulation",
-            Effect::Slip => "slip",
-            Effect::SpeedDrift { .. } => "speed_drift",
-            Effect::ExtraResonance { .. } => "extra_resonance",
-            Effect::NonlinearStiffness { .. } => "nonlinear_stiffness",
-            Effect::LineInterference { .. } => "line_interference",
-            Effect::UnexplainedPeriodic { .. } => "unexplained_periodic",
-            Effect::UnexplainedBand { .. } => "unexplained_band",
-            Effect::SecondImpactTrain { .. } => "second_impact_train",
-            Effect::RandomBursts { .. } => "random_bursts",
-        }
-    }
-
-    /// The shaft orders of a force at the shaft's orders through the bearing
-    /// (`shaft_harmonics`: k; `half_orders`: k + ½), with the prefix of its amplitude
-    /// parameters; `None` for any other effect.
-    fn force_orders(&self) -> Option<(Vec<f64>, &'static str)> {
-        match self {
-            Effect::ShaftHarmonics { orders } => Some((
-                orders.iter().map(|&k| f64::from(k)).collect(),
-                "ln_shaft_amp_",
-            )),
-            Effect::HalfOrders { orders } => Some((orders.clone(), "ln_half_order_amp_")),
-            _ => None,
-        }
-    }
-
-    /// Whether the effect is a term added at the sensor, after the structure (mains
-    /// lines, tones by another path, an unexplained tone or band): it has nothing to
-    /// trade with the structure's parameters but the measurement noise.
-    pub fn is_output_side(&self) -> bool {
-        matches!(
-            self,
-            Effect::ShaftOrderTones { .. }
-                | Effect::LineInterference { .. }
-                | Effect::UnexplainedPeriodic { .. }
-                | Effect::UnexplainedBand { .. }
-                | Effect::RandomBursts { .. }
-        )
-    }
-
-    /// The bearing defect a second impact train's rate was named for (`None` for any
-    /// other effect, and for a train from elsewhere: a rub, a struck part). Its load
-    /// zone modulates it as it does that defect: at the core's
-    /// [`DefectFrequencies::modulation_rate`] (shaft for an inner race, cage for a ball,
-    /// none for a stationary outer race).
-    pub fn second_train_location(&self) -> Option<DefectLocation> {
-        let Effect::SecondImpactTrain { source, .. } = self else {
-            return None;
-        };
-        [
-            DefectLocation::OuterRace,
-            DefectLocation::InnerRace,
-            DefectLocation::Ball,
-        ]
-        .into_iter()
-        .find(|loc| fault_name(Some(*loc)) == source)
-    }
-
-    /// Names and initial unconstrained values of the parameters it adds, from what the
-    /// current model and the measurement say (`Start`).
-    fn initial(&self, st: &Start<'_>) -> Vec<(String, f64)> {
-        let Start {
-            noise,
-            excess_power,
-            force_gain,
-            freqs,
-            peak_displacement,
-            impact_amp,
-            background,
-        } = *st;
-        let shaft = f64::from(freqs.shaft);
-        // A sinusoid carrying the excess power at `f` (a one-sided PSD line of
-        // amplitude A holds A²/2).
-        let line_amp = |f: f64| excess_power(f, 0.0).map(|p| (2.0 * p).sqrt());
-        let amp_or = |f: f64| line_amp(f).unwrap_or(3.0 * noise).max(1e-9).ln();
-        match self {
-            Effect::ShaftHarmonics { .. } | Effect::HalfOrders { .. } => {
-                let (orders, prefix) = self.force_orders().unwrap_or_default();
-                orders
-                    .iter()
-                    .map(|h| {
-                        let f = shaft * h;
-                        let amp = line_amp(f).map_or(1.0, |a| a / force_gain(f).max(1e-30));
-                        (format!("{prefix}{h}x"), amp.max(1e-6).ln())
-                    })
-                    .collect()
-            }
-            Effect::ShaftOrderTones { orders } => orders
-                .iter()
-                .map(|k| (format!("ln_tone_amp_{k}x"), amp_or(shaft * f64::from(*k))))
-                .collect(),
-            Effect::LoadZoneModulation { .. } => vec![("logit_modulation_depth".into(), 0.0)],
-            Effect::Slip => vec![("ln_jitter".into(), (0.005f64).ln())],
-            Effect::SpeedDrift { initial_per_s, .. } => {
-                vec![("drift_per_s".into(), *initial_per_s)]
-            }
-            Effect::ExtraResonance { f_hz } => vec![
-                ("ln_fn2_hz".into(), f_hz.ln()),
-                ("ln_zeta2".into(), (0.03f64).ln()),
-                ("ln_share2".into(), (0.5f64).ln()),
-            ],
-            Effect::NonlinearStiffness { initial_rel_shift } => {
-                // Duffing: Δf/f ≈ (3/8)·k_NL·A²/k_r at amplitude A; the early ring-down
-                // window averages over the decay, so the peak shift is about twice the
-                // measured one. ρ = k_NL·x_ref²/k_r.
-                let a = peak_displacement.max(1e-12);
-                let rho = (8.0 / 3.0) * 2.0 * initial_rel_shift.max(1e-4) * (X_REF_M / a).powi(2);
-                vec![("ln_knl_rel".into(), rho.ln())]
-            }
-            Effect::LineInterference { freqs } => freqs
-                .iter()
-                .map(|f| (format!("ln_line_amp_{f:.1}hz"), amp_or(*f)))
-                .collect(),
-            Effect::UnexplainedPeriodic { f_hz, .. } => {
-                vec![("ln_periodic_amp".into(), amp_or(*f_hz))]
-            }
-            // Band noise whose RMS carries the excess power over the band (started at
-            // the measurement noise σ_y, a band a few dB over the model adds nothing
-            // the log spectrum can feel, and the refit never moves it), with its centre
-            // and width fitted too: the band is read off a residual smoothed over
-            // ±100 Hz, which widens its run.
-            Effect::UnexplainedBand { f_hz, bandwidth_hz } => vec![
-                (
-                    "ln_band_level".into(),
-                    excess_power(*f_hz, 0.5 * bandwidth_hz)
-                        .map_or(noise, f64::sqrt)
-                        .max(1e-9)
-                        .ln(),
-                ),
-                ("ln_band_centre_hz".into(), f_hz.ln()),
-                ("ln_band_width_hz".into(), bandwidth_hz.max(1.0).ln()),
-            ],
-            // Bursts carrying the band's excess power at a start of 50 per second: the
-            // power of shot noise of rate λ whose bursts ring `a·e^{−πBt}·sin 2πft` is
-            // λ·E[a²]/(4πB); E[a²] = a²·e^{σ²} with log-normal amplitudes (σ = 0.5).
-            Effect::RandomBursts { f_hz, bandwidth_hz } => {
-                let rate = BURST_START_RATE_HZ;
-                let power = excess_power(*f_hz, 0.5 * bandwidth_hz).unwrap_or(noise * noise);
-                let amp = (power * 4.0 * std::f64::consts::PI * bandwidth_hz
-                    / (rate * (BURST_LOG_SIGMA * BURST_LOG_SIGMA).exp()))
-                .sqrt();
-                vec![
-                    ("ln_burst_amp".into(), amp.max(1e-9).ln()),
-                    ("ln_burst_rate_hz".into(), rate.ln()),
-                    ("ln_burst_ring_hz".into(), f_hz.ln()),
-                    ("ln_burst_width_hz".into(), bandwidth_hz.max(10.0).ln()),
-                ]
-            }
-            // Half the modelled defect's impact level, or (healthy model) twenty times
-            // the background force; the refit's second start tries a twentieth of it.
-            Effect::SecondImpactTrain { .. } => {
-                let start = if impact_amp > 0.0 {
-                    0.5 * impact_amp
-                } else {
-                    20.0 * background
-                };
-                let mut v = vec![("ln_impact2_amp".into(), start.max(1e-9).ln())];
-                if self
-                    .second_train_location()
-                    .is_some_and(|loc| freqs.modulation_rate(loc) > 0.0)
-                {
-                    v.push(("logit_modulation2_depth".into(), 0.0));
-                }
-                v
-            }
-        }
-    }
-}
-
-/// What an effect's starting values are taken from.
-#[derive(Clone, Copy)]
-struct Start<'a> {
-    /// Measurement noise σ_y of the current model (output units).
-    noise: f64,
-    /// Power (output units²) of the measured excess over the model within `f ± half`
-    /// Hz (at least the PSD's ±2 bins): `excess_power(f, half)`.
-    excess_power: &'a dyn Fn(f64, f64) -> Option<f64>,
-    /// The model's output amplitude per newton of force at a frequency.
-    force_gain: &'a dyn Fn(f64) -> f64,
-    /// Kinematic frequencies at the nominal speed.
-    freqs: DefectFrequencies,
-    /// Peak displacement of one impact's ring-down, m.
-    peak_displacement: f64,
-    /// The modelled defect's impact level, N (0 for a healthy model).
-    impact_amp: f64,
-    /// Background force σ_F, N.
-    background: f64,
-}
 
 /// A named unconstrained parameter.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -534,9 +237,9 @@ impl TwinModel {
     }
 
     /// Every effect of `kind` with its parameters, in the order they were added.
-    pub fn effects_of(&self, kind: &str) -> Vec<(&Effect, &[Param])> {
+    pub fn effects_of(&self, kind: EffectKind) -> Vec<(&Effect, &[Param])> {
         self.effect_spans()
-            .filter(|(e, _)| e.name() == kind)
+            .filter(|(e, _)| e.kind() == kind)
             .map(|(e, span)| (e, &self.params[span]))
             .collect()
     }
@@ -578,7 +281,7 @@ impl TwinModel {
     /// extra resonance, Hz.
     pub fn mode_frequencies(&self) -> Vec<f64> {
         let mut f = vec![self.get("ln_fn_hz").map_or(3000.0, f64::exp)];
-        for (_, p) in self.effects_of("extra_resonance") {
+        for (_, p) in self.effects_of(EffectKind::ExtraResonance) {
             if let Some(first) = p.first() {
                 f.push(first.value.exp());
             }
@@ -589,12 +292,12 @@ impl TwinModel {
     /// The mean overlap `λ·τ` of the last [`Effect::RandomBursts`] (rate × decay time
     /// `1/(πB)`), or `None` without bursts.
     pub fn burst_overlap(&self) -> Option<f64> {
-        let (_, p) = self.effects_of("random_bursts").pop()?;
+        let (_, p) = self.effects_of(EffectKind::RandomBursts).pop()?;
         let (rate, width) = (p.get(1)?.value.exp(), p.get(3)?.value.exp());
         Some(rate / (std::f64::consts::PI * width))
     }
 
-    fn effect_params(&self, kind: &str) -> Option<(&Effect, &[Param])> {
+    fn effect_params(&self, kind: EffectKind) -> Option<(&Effect, &[Param])> {
         self.effects_of(kind).into_iter().next()
     }
 
@@ -647,14 +350,14 @@ impl TwinModel {
             }
         };
         if let Some((Effect::LineInterference { freqs }, p)) =
-            self.effect_params("line_interference")
+            self.effect_params(EffectKind::LineInterference)
         {
             for (f, param) in freqs.iter().zip(p) {
                 add_sine(*f, param.value.exp(), 0.1 * f);
             }
         }
         if let Some((Effect::ShaftOrderTones { orders }, p)) =
-            self.effect_params("shaft_order_tones")
+            self.effect_params(EffectKind::ShaftOrderTones)
         {
             for (k, param) in orders.iter().zip(p) {
                 add_sine(
@@ -665,16 +368,20 @@ impl TwinModel {
             }
         }
         // A record may carry several tones, and bands, nobody declared.
-        for (e, p) in self.effects_of("unexplained_periodic") {
+        for (e, p) in self.effects_of(EffectKind::UnexplainedPeriodic) {
             if let Effect::UnexplainedPeriodic { f_hz, .. } = e {
                 add_sine(*f_hz, p[0].value.exp(), 0.7);
             }
         }
-        for (_, p) in self.effects_of("unexplained_band") {
+        for (_, p) in self.effects_of(EffectKind::UnexplainedBand) {
             let [level, centre, width] = [0, 1, 2].map(|i| p[i].value.exp());
             add_band_noise(&mut y, fs, centre, width, level, &mut rng)?;
         }
-        for (i, (_, p)) in self.effects_of("random_bursts").into_iter().enumerate() {
+        for (i, (_, p)) in self
+            .effects_of(EffectKind::RandomBursts)
+            .into_iter()
+            .enumerate()
+        {
             let [amp, rate, ring, width] = [0, 1, 2, 3].map(|k| p[k].value.exp());
             add_random_bursts(
                 &mut y,
@@ -752,7 +459,7 @@ impl TwinModel {
         let fn_hz = get("ln_fn_hz").map_or(3000.0, f64::exp);
         let zeta = get("ln_zeta").map_or(0.05, f64::exp);
         let drift = self
-            .effect_params("speed_drift")
+            .effect_params(EffectKind::SpeedDrift)
             .map_or(0.0, |(_, p)| p[0].value.clamp(-0.2, 0.2));
         let mut rng = Xoshiro128pp::seed_from_u64(seed);
 
@@ -768,14 +475,14 @@ impl TwinModel {
         let centre = 1.0 / (1.0 + drift * t_mid);
         let rate = centre * rate * (1.0 + get("rate_factor").unwrap_or(0.0).clamp(-0.1, 0.1));
         let shaft = centre * shaft;
-        let (depth, mod_hz) = match self.effect_params("load_zone_modulation") {
+        let (depth, mod_hz) = match self.effect_params(EffectKind::LoadZoneModulation) {
             Some((Effect::LoadZoneModulation { mod_hz }, p)) => {
                 (1.0 / (1.0 + (-p[0].value).exp()), *mod_hz)
             }
             _ => (0.0, mod_default),
         };
         let jitter = self
-            .effect_params("slip")
+            .effect_params(EffectKind::Slip)
             .map_or(0.0, |(_, p)| p[0].value.exp().min(0.2));
         let ex = CompositeExcitation {
             impact: ImpactTrain {
@@ -814,11 +521,55 @@ impl TwinModel {
         let mut force_r = vec![0.0f64; 2 * n_sim + 1];
         let mut force_t = vec![0.0f64; 2 * n_sim + 1];
         ex.render(grid, &mut force_r, &mut force_t, &mut rng)?;
+        self.add_forces(
+            &ForceContext {
+                grid,
+                seed,
+                shaft,
+                drift,
+                centre,
+                jitter,
+            },
+            &mut force_r,
+            &mut rng,
+        )?;
+        let y_sim = self.structural_response(fn_hz, zeta, h, &force_r, &mut force_t)?;
+        let y = self.measurement_chain(&y_sim, fs_sim, n_out, n_warm)?;
+        Ok(Structure {
+            y,
+            rng,
+            shaft,
+            drift,
+        })
+    }
+
+    /// The forces on top of the defect's train: a further modulation of its impacts,
+    /// the background, forces at the shaft's orders and half orders, and second
+    /// impact trains.
+    fn add_forces(
+        &self,
+        fc: &ForceContext,
+        force_r: &mut [f64],
+        rng: &mut Xoshiro128pp,
+    ) -> Result<(), pumptwin_core::Error> {
+        let ForceContext {
+            grid,
+            seed,
+            shaft,
+            drift,
+            centre,
+            jitter,
+        } = *fc;
+        let get = |n: &str| self.get(n);
         // A further modulation of the same impacts (a load that varies at a rate of its
         // own, a process pulsation, on top of the load zone the train carries): their
         // amplitudes multiplied by it, in the train's form, at a rate that does not
         // follow the shaft's speed.
-        for (e, p) in self.effects_of("load_zone_modulation").into_iter().skip(1) {
+        for (e, p) in self
+            .effects_of(EffectKind::LoadZoneModulation)
+            .into_iter()
+            .skip(1)
+        {
             if let (Effect::LoadZoneModulation { mod_hz }, Some(q)) = (e, p.first()) {
                 let depth = 1.0 / (1.0 + (-q.value).exp());
                 let w = 2.0 * std::f64::consts::PI * mod_hz;
@@ -835,7 +586,7 @@ impl TwinModel {
         for (f, u) in force_r.iter_mut().zip(unit.iter()) {
             *f += bg * u;
         }
-        for kind in ["shaft_harmonics", "half_orders"] {
+        for kind in [EffectKind::ShaftHarmonics, EffectKind::HalfOrders] {
             let Some((e, p)) = self.effect_params(kind) else {
                 continue;
             };
@@ -847,10 +598,10 @@ impl TwinModel {
                     phase_rad: 0.3 * h,
                     drift_per_s: drift,
                 };
-                s.add_to(grid, 1.0, &mut force_r)?;
+                s.add_to(grid, 1.0, force_r)?;
             }
         }
-        for (e, p) in self.effects_of("second_impact_train") {
+        for (e, p) in self.effects_of(EffectKind::SecondImpactTrain) {
             if let Effect::SecondImpactTrain { rate_hz, .. } = e {
                 // Rolling-element slip times every defect's impacts alike; a train
                 // from elsewhere (a rub, a struck part) keeps its own clock.
@@ -873,16 +624,32 @@ impl TwinModel {
                     jitter: if bearing_defect { jitter } else { 0.0 },
                     rate_drift_per_s: drift,
                 };
-                train.add_to(grid, 1.0, &mut force_r, &mut rng)?;
+                train.add_to(grid, 1.0, force_r, rng)?;
             }
         }
+        Ok(())
+    }
+
+    /// The structure's acceleration at the sensor, in g, at the simulation rate: the
+    /// 2-DOF model (its second DOF the first extra mode) and further modes by modal
+    /// superposition, driven by `force_r` (and `force_t`, which the first extra mode
+    /// sets).
+    fn structural_response(
+        &self,
+        fn_hz: f64,
+        zeta: f64,
+        h: f64,
+        force_r: &[f64],
+        force_t: &mut [f64],
+    ) -> Result<Vec<f32>, pumptwin_core::Error> {
+        let n_sim = force_r.len() / 2;
         let mut params = BearingParams::from_modal(1.0, fn_hz, zeta, 1000.0, 0.05, 0.0, 0.0)?;
         // Extra structural modes: the first is the model's second DOF (driven by
         // `share · F_r`); further ones are modal superposition — more linear modes,
         // pairwise in extra 2-DOF systems with no coupling and no cubic term, driven by
         // the same radial force, their accelerations added at the sensor.
         let extra_modes: Vec<(f64, f64, f64)> = self
-            .effects_of("extra_resonance")
+            .effects_of(EffectKind::ExtraResonance)
             .iter()
             .filter(|(_, p)| p.len() >= 3)
             .map(|(_, p)| (p[0].value.exp(), p[1].value.exp(), p[2].value.exp()))
@@ -891,18 +658,18 @@ impl TwinModel {
             let w2 = 2.0 * std::f64::consts::PI * f2;
             params.stiffness_angular = w2 * w2;
             params.damping_angular = 2.0 * z2 * w2;
-            for (t, r) in force_t.iter_mut().zip(&force_r) {
+            for (t, r) in force_t.iter_mut().zip(force_r) {
                 *t = share * r;
             }
         }
-        if let Some((_, p)) = self.effect_params("nonlinear_stiffness") {
+        if let Some((_, p)) = self.effect_params(EffectKind::NonlinearStiffness) {
             params.stiffness_nl_radial =
                 p[0].value.exp() * params.stiffness_radial / (X_REF_M * X_REF_M);
         }
         let model = Bearing2Dof::<f64>::new(&params)?;
         let mut acc_r = vec![0.0f64; n_sim];
         let mut acc_t = vec![0.0f64; n_sim];
-        model.simulate(State::REST, h, &force_r, &force_t, &mut acc_r, &mut acc_t)?;
+        model.simulate(State::REST, h, force_r, force_t, &mut acc_r, &mut acc_t)?;
         for pair in extra_modes.get(1..).unwrap_or(&[]).chunks(2) {
             let (fa, za, sa) = pair[0];
             let (fb, zb, sb) = pair.get(1).copied().unwrap_or((fa, za, 0.0));
@@ -927,6 +694,19 @@ impl TwinModel {
             .zip(&acc_t)
             .map(|(a, b)| ((a + b) / f64::from(G)) as f32)
             .collect();
+        Ok(y_sim)
+    }
+
+    /// The measurement chain of a record at the model rate: the anti-alias filter and
+    /// decimation, the common band limit, the warm-up dropped.
+    fn measurement_chain(
+        &self,
+        y_sim: &[f32],
+        fs_sim: f64,
+        n_out: usize,
+        n_warm: usize,
+    ) -> Result<Vec<f32>, pumptwin_core::Error> {
+        let n_sim = y_sim.len();
         // The measurement chain: a wide anti-alias filter (flat to the band limit) for
         // the decimation, then the very band limit every measured record gets in
         // preprocessing (`pumptwin_data::preprocess`), so model and record share the
@@ -938,7 +718,7 @@ impl TwinModel {
             &mut taps,
         )?;
         let mut y_aa = vec![0.0f32; decimated_len(n_sim, OVERSAMPLE)];
-        filter_decimate(&y_sim, &taps, OVERSAMPLE, &mut y_aa)?;
+        filter_decimate(y_sim, &taps, OVERSAMPLE, &mut y_aa)?;
         let mut band = vec![0.0f32; pumptwin_data::preprocess::BAND_LIMIT_TAPS];
         design_lowpass(
             BAND_LIMIT_HZ.min(0.45 * self.op.fs_hz),
@@ -949,12 +729,7 @@ impl TwinModel {
         filter_decimate(&y_aa, &band, 1, &mut y)?;
         y.truncate(n_out);
         y.drain(..n_warm);
-        Ok(Structure {
-            y,
-            rng,
-            shaft,
-            drift,
-        })
+        Ok(y)
     }
 }
 
@@ -968,6 +743,19 @@ struct Structure {
     shaft: f64,
     /// Speed drift, fraction per second.
     drift: f64,
+}
+
+/// What the forces of one rendering share: the time grid, the seed of the common
+/// random numbers, the drift-centred shaft rate, the drift, the centring factor and
+/// the slip jitter of rolling elements.
+#[derive(Debug, Clone, Copy)]
+struct ForceContext {
+    grid: TimeGrid,
+    seed: u64,
+    shaft: f64,
+    drift: f64,
+    centre: f64,
+    jitter: f64,
 }
 
 /// A unit-variance Gaussian sequence of `n` values for `seed`, generated once per
@@ -1044,10 +832,6 @@ fn add_band_noise(
     Ok(())
 }
 
-/// Mean burst rate a [`Effect::RandomBursts`] fit starts from, per second.
-pub const BURST_START_RATE_HZ: f64 = 50.0;
-/// Spread (σ of the logarithm) of the burst amplitudes about their level.
-pub const BURST_LOG_SIGMA: f64 = 0.5;
 /// Most bursts per second the model renders (a rate beyond it is band noise, which
 /// [`Effect::UnexplainedBand`] models).
 const BURST_MAX_RATE_HZ: f64 = 2000.0;
@@ -1083,16 +867,6 @@ fn add_random_bursts(y: &mut [f32], fs: f64, [level, rate, ring, width]: [f64; 4
             *v +=
                 (a * (-decay * tau).exp() * (2.0 * std::f64::consts::PI * ring * tau).sin()) as f32;
         }
-    }
-}
-
-/// Which defect the frequencies point at, by name (`outer_race` …) for reports.
-pub fn fault_name(fault: Option<DefectLocation>) -> &'static str {
-    match fault {
-        None => "none",
-        Some(DefectLocation::OuterRace) => "outer_race",
-        Some(DefectLocation::InnerRace) => "inner_race",
-        Some(DefectLocation::Ball) => "ball",
     }
 }
 

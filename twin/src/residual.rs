@@ -32,13 +32,72 @@ pub const MAX_TONES: usize = 6;
 /// Electrical supply frequencies checked for line interference, Hz.
 pub const MAINS_HZ: [f64; 2] = [50.0, 60.0];
 
+/// The spectrum a residual component stands in (`psd` or `envelope` in reports).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Domain {
+    /// The power spectral density.
+    Psd,
+    /// The envelope spectrum.
+    Envelope,
+}
+
+/// The shape of a residual component (`line`, `band`, `below_band`, `above_band` in
+/// reports).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Kind {
+    /// A narrow peak (a Hann main lobe, at most [`LINE_MAX_BINS`] bins).
+    Line,
+    /// A wider run above the floor.
+    Band,
+    /// Energy rising to the compared band's lower edge.
+    BelowBand,
+    /// Energy rising to the compared band's upper edge.
+    AboveBand,
+}
+
+impl Domain {
+    /// The name in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Domain::Psd => "psd",
+            Domain::Envelope => "envelope",
+        }
+    }
+}
+
+impl std::fmt::Display for Domain {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl Kind {
+    /// The name in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Kind::Line => "line",
+            Kind::Band => "band",
+            Kind::BelowBand => "below_band",
+            Kind::AboveBand => "above_band",
+        }
+    }
+}
+
+impl std::fmt::Display for Kind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
 /// One significant residual component.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Component {
-    /// `psd` or `envelope`.
-    pub domain: &'static str,
-    /// `line` or `band`.
-    pub kind: &'static str,
+    /// The spectrum it stands in.
+    pub domain: Domain,
+    /// Its shape.
+    pub kind: Kind,
     /// Peak frequency, Hz.
     pub f_hz: f64,
     /// Width of the run above the floor, Hz.
@@ -124,7 +183,7 @@ pub fn evidence_gap(
         Check::Lines => {
             let mut total = 0.0;
             for c in components {
-                let (m, s, n) = if c.domain == "psd" {
+                let (m, s, n) = if c.domain == Domain::Psd {
                     (meas_psd_db, sim_psd_db, cfg.psd_n)
                 } else {
                     (meas_env_db, sim_env_db, cfg.env_n)
@@ -235,7 +294,7 @@ pub fn significant_components(
     bins: std::ops::RangeInclusive<usize>,
     df: f64,
     shaft_hz: f64,
-    domain: &'static str,
+    domain: Domain,
 ) -> (Vec<Component>, f32) {
     let mut vals: Vec<f32> = bins.clone().map(|k| d[k]).collect();
     let med = median(&mut vals);
@@ -264,13 +323,13 @@ pub fn significant_components(
             // band of its own (a cage-rate line two bins above the low edge).
             let rises = |k: Option<usize>| k.and_then(|k| d.get(k)).is_some_and(|&v| v > d[peak]);
             let (kind, width_bins) = if peak == *bins.start() && rises(peak.checked_sub(1)) {
-                ("below_band", end - start + 1)
+                (Kind::BelowBand, end - start + 1)
             } else if peak == *bins.end() && rises(Some(peak + 1)) {
-                ("above_band", end - start + 1)
+                (Kind::AboveBand, end - start + 1)
             } else if core_bins <= LINE_MAX_BINS {
-                ("line", core_bins)
+                (Kind::Line, core_bins)
             } else {
-                ("band", end - start + 1)
+                (Kind::Band, end - start + 1)
             };
             Component {
                 domain,
@@ -279,7 +338,7 @@ pub fn significant_components(
                 width_hz: width_bins as f64 * df,
                 excess_db: d[peak] - med,
                 order: f / shaft_hz,
-                centre_hz: (kind == "band").then_some(0.5 * (start + end) as f64 * df),
+                centre_hz: (kind == Kind::Band).then_some(0.5 * (start + end) as f64 * df),
             }
         })
         .collect();
@@ -305,7 +364,7 @@ pub(crate) const TOOTH_TOL_REL: f64 = 0.0005;
 /// line on a low shaft order that lies nearer the order than the tooth is not the
 /// comb's (in the body).
 pub fn on_model_comb(model: &TwinModel, c: &Component, df: f64, span_s: f64) -> bool {
-    if c.kind != "line" {
+    if c.kind != Kind::Line {
         return false;
     }
     let mut sidebands = Vec::new();
@@ -394,11 +453,11 @@ pub fn analyse(
     let s = to_db(&sim.psd, &meas.psd);
     let d: Vec<f32> = m.iter().zip(&s).map(|(a, b)| a - b).collect();
     let df = f64::from(cfg.fs_hz) / cfg.psd_n as f64;
-    let (raw, thr) = significant_components(&d, cfg.psd_bins(), df, shaft_hz, "psd");
+    let (raw, thr) = significant_components(&d, cfg.psd_bins(), df, shaft_hz, Domain::Psd);
     // Lines, and what stands at the band's edges from outside it; bands come from the
     // smoothed residual below.
     let (narrow, mut psd): (Vec<Component>, Vec<Component>) =
-        raw.into_iter().partition(|c| c.kind == "band");
+        raw.into_iter().partition(|c| c.kind == Kind::Band);
     let half = ((100.0 / df).ceil() as usize).max(2);
     let bins = cfg.psd_bins();
     let smooth: Vec<f32> = (0..d.len())
@@ -431,7 +490,8 @@ pub fn analyse(
     let se = to_db(&sim.env, &meas.env);
     let de: Vec<f32> = me.iter().zip(&se).map(|(a, b)| a - b).collect();
     let dfe = f64::from(cfg.fs_hz) / cfg.env_n as f64;
-    let (mut envelope, _) = significant_components(&de, cfg.env_bins(), dfe, shaft_hz, "envelope");
+    let (mut envelope, _) =
+        significant_components(&de, cfg.env_bins(), dfe, shaft_hz, Domain::Envelope);
     // A model that lacks a whole family of envelope lines (a second impact train and
     // its intermodulation with the first) also misplaces the floor between them, and
     // the spread that leaves in the residual (MAD 4–5 dB) lifts the 5σ threshold over
@@ -447,7 +507,7 @@ pub fn analyse(
             cfg.env_bins(),
             dfe,
             shaft_hz,
-            "envelope",
+            Domain::Envelope,
             LINE_PROMINENCE_DB,
         ),
         dfe,
@@ -460,7 +520,15 @@ pub fn analyse(
     let top = ((40.0 * shaft_hz / df) as usize).clamp(lo, hi);
     add_lines(
         &mut psd,
-        prominent_lines(&m, &d, lo..=top, df, shaft_hz, "psd", LINE_PROMINENCE_DB),
+        prominent_lines(
+            &m,
+            &d,
+            lo..=top,
+            df,
+            shaft_hz,
+            Domain::Psd,
+            LINE_PROMINENCE_DB,
+        ),
         df,
     );
     if top < hi {
@@ -472,14 +540,17 @@ pub fn analyse(
                 top + 1..=hi,
                 df,
                 shaft_hz,
-                "psd",
+                Domain::Psd,
                 STRUCTURE_LINE_PROMINENCE_DB,
             ),
             df,
         );
     }
     envelope.sort_by(|a, b| a.f_hz.total_cmp(&b.f_hz));
-    let envelope = envelope.into_iter().filter(|c| c.kind != "band").collect();
+    let envelope = envelope
+        .into_iter()
+        .filter(|c| c.kind != Kind::Band)
+        .collect();
     let psd_residual = cfg.psd_bins().map(|k| (cfg.psd_freq(k), d[k])).collect();
     ResidualAnalysis {
         psd,
@@ -499,7 +570,7 @@ fn prominent_lines(
     bins: std::ops::RangeInclusive<usize>,
     df: f64,
     shaft_hz: f64,
-    domain: &'static str,
+    domain: Domain,
     prominence_db: f32,
 ) -> Vec<Component> {
     let prominence = local_detrend(meas_db, bins.clone(), (40.0 / df).round() as usize);
@@ -509,7 +580,7 @@ fn prominent_lines(
         .map(|(&d, &p)| if p >= prominence_db { d.max(0.0) } else { 0.0 })
         .collect();
     let (lines, _) = significant_components(&gated, bins, df, shaft_hz, domain);
-    lines.into_iter().filter(|c| c.kind == "line").collect()
+    lines.into_iter().filter(|c| c.kind == Kind::Line).collect()
 }
 
 /// Add the `extra` lines that no component of `to` already stands within two bins of.
@@ -554,8 +625,8 @@ fn significant_bands(
         .map(|(start, end, peak)| {
             let f = peak as f64 * df;
             Component {
-                domain: "psd",
-                kind: "band",
+                domain: Domain::Psd,
+                kind: Kind::Band,
                 f_hz: f,
                 width_hz: (end - start + 1) as f64 * df,
                 excess_db: d[peak] - med,

@@ -48,7 +48,7 @@ fn loop_on(effect: Injected, strength: Strength, seed: u64) -> LoopReport {
 
 fn check_realistic(effect: Injected) {
     let report = loop_on(effect, Strength::Realistic, 21);
-    let want = effect.expected_effect().expect("an effect");
+    let want = effect.expected_effect().expect("an effect").name();
     assert_eq!(
         report.effects.first().map(String::as_str),
         Some(want),
@@ -77,7 +77,7 @@ fn check_realistic(effect: Injected) {
 
 fn check_weak(effect: Injected) {
     let report = loop_on(effect, Strength::Weak, 22);
-    let want = effect.expected_effect().expect("an effect");
+    let want = effect.expected_effect().expect("an effect").name();
     for claimed in &report.effects {
         assert_eq!(
             claimed, want,

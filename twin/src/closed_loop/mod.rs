@@ -109,9 +109,9 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::generate::{generate, Injected, Strength};
     use crate::signature::SignatureConfig;
     use pumptwin_core::bearing::BearingGeometry;
-    use crate::generate::{generate, Injected, Strength};
 
     /// The scatter of a stationary record is the Welch estimate's: 4 s of white noise
     /// at 1024 points (about 90 blocks with their overlap) scatters by 4.34 dB ×

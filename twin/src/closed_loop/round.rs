@@ -7,6 +7,7 @@ use super::trial::{rival_only, tried_key, Trial, Trials};
 use super::types::{LoopError, LoopStep};
 use crate::fit::FitResult;
 use crate::model::TwinModel;
+use crate::residual::Domain;
 use crate::residual::{analyse, Check, Component, ResidualAnalysis};
 use crate::signature::{to_db, ErrorFigures, SignatureConfig};
 use crate::trace::{trace, TraceContext};
@@ -34,7 +35,7 @@ pub(super) fn unexplained(
         .iter()
         .chain(a.envelope.iter())
         .filter(|c| {
-            let n = if c.domain == "psd" {
+            let n = if c.domain == Domain::Psd {
                 cfg.psd_n
             } else {
                 cfg.env_n

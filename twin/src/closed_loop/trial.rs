@@ -7,6 +7,7 @@
 use super::setup::Setup;
 use super::types::{LoopError, RejectedCandidate};
 use crate::fit::{evaluate, fit, FitConfig, FitError, FitResult, Target};
+use crate::model::EffectKind;
 use crate::model::{Effect, TwinModel};
 use crate::residual::{evidence_gap, Candidate, Check};
 use crate::signature::{error_figures, to_db, Signature, SignatureConfig};
@@ -239,7 +240,10 @@ impl Trial<'_> {
         }
         // A drifting speed builds up over the whole record: a model with a drift is
         // simulated over all of it (three times the fit span).
-        let drifts = start.effects.iter().any(|(e, _)| e.name() == "speed_drift");
+        let drifts = start
+            .effects
+            .iter()
+            .any(|(e, _)| e.kind() == EffectKind::SpeedDrift);
         // A term added at the sensor is fitted with the structure held: it has
         // nothing to trade with the structure but the measurement noise (refitted
         // with it), and every evaluation then reuses the simulated structure

@@ -6,6 +6,8 @@ use super::context::{
     MAX_UNEXPLAINED_BANDS, MIN_LOG_KURTOSIS_EXCESS,
 };
 use crate::model::Effect;
+use crate::model::EffectKind;
+use crate::residual::Kind;
 use crate::residual::{
     band_carries_defect, band_kurtosis, Candidate, Check, Component, ResidualAnalysis,
     NARROW_BAND_MAX_HZ,
@@ -22,9 +24,9 @@ pub(super) fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>, out: &m
     let mut modes = model.mode_frequencies();
     modes.extend(
         model
-            .effects_of("unexplained_band")
+            .effects_of(EffectKind::UnexplainedBand)
             .into_iter()
-            .chain(model.effects_of("random_bursts"))
+            .chain(model.effects_of(EffectKind::RandomBursts))
             .filter_map(|(e, _)| match e {
                 Effect::UnexplainedBand { f_hz, .. } | Effect::RandomBursts { f_hz, .. } => {
                     Some(*f_hz)
@@ -35,7 +37,7 @@ pub(super) fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>, out: &m
     let mut bands: Vec<&Component> = analysis
         .psd
         .iter()
-        .filter(|c| c.kind == "band")
+        .filter(|c| c.kind == Kind::Band)
         // A band on a mode (or band) the model already has is its misfit, not a new one.
         .filter(|c| modes.iter().all(|f| (c.f_hz - f).abs() > 0.12 * f))
         .collect();
@@ -149,7 +151,7 @@ fn band_readings(
         ev
     };
     if let Some(why) =
-        as_mode.filter(|_| model.effects_of("extra_resonance").len() < MAX_EXTRA_MODES)
+        as_mode.filter(|_| model.effects_of(EffectKind::ExtraResonance).len() < MAX_EXTRA_MODES)
     {
         out.push(Candidate {
             effect: Effect::ExtraResonance { f_hz: b.f_hz },
@@ -158,8 +160,8 @@ fn band_readings(
             check: Check::Lines,
         });
     }
-    if let Some(why) =
-        as_band.filter(|_| model.effects_of("unexplained_band").len() < MAX_UNEXPLAINED_BANDS)
+    if let Some(why) = as_band
+        .filter(|_| model.effects_of(EffectKind::UnexplainedBand).len() < MAX_UNEXPLAINED_BANDS)
     {
         out.push(Candidate {
             effect: Effect::UnexplainedBand {
@@ -181,7 +183,7 @@ fn band_readings(
     // reads above 3 whatever its rate, so a band below it (a steady oscillation,
     // tones, carry it) is not carried by bursts.
     let impulsive = kurt.is_some_and(|(km, _)| km > 3.0);
-    let no_bursts_yet = model.effects_of("random_bursts").is_empty();
+    let no_bursts_yet = model.effects_of(EffectKind::RandomBursts).is_empty();
     if let Some(d) =
         dilution.filter(|&d| no_bursts_yet && !narrow && impulsive && d >= BURST_DILUTION_DB)
     {
@@ -213,7 +215,7 @@ pub(super) fn trace_random_impacts(ctx: &TraceContext<'_>, out: &mut Vec<Candida
     // random times. Offered as a rival only (the last turn of a round), so only where
     // nothing else is left; the refit judges it by the kurtosis it was offered for.
     // (The loop withholds it from a record with dropouts, whose steps are impulsive.)
-    if model.effects_of("random_bursts").is_empty() {
+    if model.effects_of(EffectKind::RandomBursts).is_empty() {
         let (lo, hi) = (ctx.cfg.psd_lo_hz, ctx.cfg.psd_hi_hz);
         let kurt = band_kurtosis(ctx.x, fs, lo, hi).zip(band_kurtosis(ctx.sim, fs, lo, hi));
         if let Some((km, ks)) = kurt.filter(|&(km, ks)| (km / ks).ln() > MIN_LOG_KURTOSIS_EXCESS) {

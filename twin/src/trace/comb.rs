@@ -2,6 +2,7 @@
 
 use super::context::{has, TraceContext};
 use crate::model::Effect;
+use crate::model::EffectKind;
 use crate::residual::{comb_contrast, envelope_line, Candidate, Check, Evidence};
 use crate::signature::block_within;
 
@@ -12,7 +13,7 @@ pub(super) fn trace(ctx: &TraceContext<'_>, out: &mut Vec<Candidate>) {
     let fs = ctx.cfg.fs_hz;
     // --- Washed-out defect comb: slip or speed drift.
     if let Some(loc) = model.fault {
-        if !has(model, "slip") && !has(model, "speed_drift") {
+        if !has(model, EffectKind::Slip) && !has(model, EffectKind::SpeedDrift) {
             let rate = f64::from(model.op.freqs.impact_rate(loc))
                 * (1.0 + model.get("rate_factor").unwrap_or(0.0));
             let cm = comb_contrast(&ctx.meas_psd_db, ctx.cfg, rate);

@@ -1,6 +1,7 @@
 //! What every tracer reads: the measurement and the current twin, and the limits
 //! on how many effects of each kind the loop adds.
 
+use crate::model::EffectKind;
 use crate::model::{Effect, TwinModel};
 use crate::residual::{Component, Evidence};
 use crate::signature::SignatureConfig;
@@ -59,7 +60,7 @@ pub const MAX_MODULATIONS: usize = 2;
 /// The rates, Hz, the model modulates its impacts at.
 pub(crate) fn modulation_rates(model: &TwinModel) -> Vec<f64> {
     model
-        .effects_of("load_zone_modulation")
+        .effects_of(EffectKind::LoadZoneModulation)
         .into_iter()
         .filter_map(|(e, _)| match e {
             Effect::LoadZoneModulation { mod_hz } => Some(*mod_hz),
@@ -76,8 +77,8 @@ pub(crate) fn modulated_at(model: &TwinModel, f_hz: f64) -> bool {
 }
 
 /// Does the model have an effect of this kind already?
-pub(crate) fn has(model: &TwinModel, name: &str) -> bool {
-    model.effects.iter().any(|(e, _)| e.name() == name)
+pub(crate) fn has(model: &TwinModel, kind: EffectKind) -> bool {
+    model.effects.iter().any(|(e, _)| e.kind() == kind)
 }
 
 /// Is `f` within `tol` of a line a load zone puts in the envelope spectrum of impacts

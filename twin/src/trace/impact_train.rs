@@ -7,6 +7,7 @@ use crate::model::{fault_name, Effect, TwinModel};
 use crate::residual::{
     on_model_comb, refine_comb_rate, Candidate, Check, Component, Evidence, ResidualAnalysis,
 };
+use crate::residual::{Domain, Kind};
 use crate::signature::SignatureConfig;
 use pumptwin_core::bearing::DefectLocation;
 
@@ -63,7 +64,7 @@ pub fn second_train(
     let lines: Vec<&Component> = analysis
         .envelope
         .iter()
-        .filter(|c| c.kind == "line" && c.f_hz >= 5.0)
+        .filter(|c| c.kind == Kind::Line && c.f_hz >= 5.0)
         .filter(|c| !on_model_comb(model, c, dfe, span_s) && !modulation_line(c.f_hz))
         .collect();
     if lines.len() < 2 {
@@ -103,8 +104,8 @@ pub fn second_train(
             // line-dense residual otherwise offers chance families at low rates).
             if ks[0] != 1 {
                 let at_r = Component {
-                    domain: "envelope",
-                    kind: "line",
+                    domain: Domain::Envelope,
+                    kind: Kind::Line,
                     f_hz: r,
                     width_hz: dfe,
                     excess_db: 0.0,

@@ -3,7 +3,9 @@
 
 use super::context::{evidence, has, modulated_at, TraceContext, MAX_UNEXPLAINED_TONES};
 use super::impact_train::SecondTrain;
+use crate::model::EffectKind;
 use crate::model::{Effect, TwinModel};
+use crate::residual::Kind;
 use crate::residual::{
     on_model_comb, Candidate, Check, Component, ResidualAnalysis, MAINS_HZ, MAX_TONES,
     TOOTH_TOL_BINS, TOOTH_TOL_REL,
@@ -82,7 +84,7 @@ impl<'a> LineTracer<'a> {
         let lines: Vec<&Component> = analysis
             .psd
             .iter()
-            .filter(|c| c.kind == "line" && !on_comb(c) && !sideband(c) && !modelled(c))
+            .filter(|c| c.kind == Kind::Line && !on_comb(c) && !sideband(c) && !modelled(c))
             .collect();
         let mut used = vec![false; lines.len()];
         // A second impact train puts lines at k·r in the PSD too: those are its evidence,
@@ -157,7 +159,7 @@ impl<'a> LineTracer<'a> {
     /// least off the shaft's orders.
     fn mains(&mut self, out: &mut Vec<Candidate>) {
         let model = self.model;
-        if !has(model, "line_interference") {
+        if !has(model, EffectKind::LineInterference) {
             for mains in MAINS_HZ {
                 let members: Vec<usize> = (0..self.lines.len())
                     .filter(|&i| {
@@ -221,7 +223,7 @@ impl<'a> LineTracer<'a> {
             .copied()
             .filter(|&i| self.lines[i].order < 12.5)
             .collect();
-        if !force.is_empty() && !has(model, "shaft_harmonics") {
+        if !force.is_empty() && !has(model, EffectKind::ShaftHarmonics) {
             force.iter().for_each(|&i| self.used[i] = true);
             let (comps, orders, strength, note) = self.family(&force);
             out.push(Candidate {
@@ -236,9 +238,9 @@ impl<'a> LineTracer<'a> {
                 check: Check::Lines,
             });
         }
-        if !order_lines.is_empty() && !has(model, "shaft_order_tones") {
-            let offered_as_force =
-                order_lines.iter().any(|i| force.contains(i)) && !has(model, "shaft_harmonics");
+        if !order_lines.is_empty() && !has(model, EffectKind::ShaftOrderTones) {
+            let offered_as_force = order_lines.iter().any(|i| force.contains(i))
+                && !has(model, EffectKind::ShaftHarmonics);
             order_lines.iter().for_each(|&i| self.used[i] = true);
             let (comps, orders, strength, note) = self.family(&order_lines);
             out.push(Candidate {
@@ -262,7 +264,7 @@ impl<'a> LineTracer<'a> {
         // Lines at half orders (k + ½)·f_r up to 12.5×, two or more of them: a force that
         // repeats every second turn — a loose seat or mount, a rub. One such line alone is
         // left to the fallback (a tone that happens to sit there).
-        if !has(model, "half_orders") {
+        if !has(model, EffectKind::HalfOrders) {
             let members: Vec<usize> = (0..self.lines.len())
                 .filter(|&i| {
                     let c = self.lines[i];
@@ -299,7 +301,7 @@ impl<'a> LineTracer<'a> {
     /// or pass frequency, the cage rate, a sub-synchronous whirl).
     fn unexplained_tone(&self, out: &mut Vec<Candidate>) {
         let (model, shaft, df) = (self.model, self.shaft, self.df);
-        if model.effects_of("unexplained_periodic").len() < MAX_UNEXPLAINED_TONES {
+        if model.effects_of(EffectKind::UnexplainedPeriodic).len() < MAX_UNEXPLAINED_TONES {
             if let Some(i) = (0..self.lines.len())
                 .filter(|&i| !self.used[i])
                 .max_by(|&a, &b| self.lines[a].excess_db.total_cmp(&self.lines[b].excess_db))

@@ -26,6 +26,7 @@ pub use context::TraceContext;
 pub use impact_train::{second_train, SecondTrain};
 pub use modulation::{measured_modulation, MeasuredModulation};
 
+use crate::model::EffectKind;
 use crate::residual::{Candidate, ResidualAnalysis};
 use context::has;
 
@@ -36,7 +37,7 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
     let span_s = ctx.x.len() as f64 / f64::from(ctx.cfg.fs_hz);
     // A second impact train puts lines at k·r in the PSD too: read first, so that the
     // line tracer leaves them to it.
-    let train = if has(model, "second_impact_train") {
+    let train = if has(model, EffectKind::SecondImpactTrain) {
         None
     } else {
         second_train(analysis, model, ctx.cfg, &ctx.meas_psd_db, span_s)

@@ -6,6 +6,7 @@ use super::context::{
     NAMED_RATE_TOLERANCE,
 };
 use crate::model::Effect;
+use crate::residual::Kind;
 use crate::residual::{
     band_envelope_spectrum, Candidate, Check, Component, Evidence, ResidualAnalysis,
 };
@@ -50,10 +51,10 @@ pub fn measured_modulation(
     dfe: f64,
     refine: impl Fn(f64) -> Option<f64>,
 ) -> Option<MeasuredModulation> {
-    let lines: Vec<&Component> = envelope.iter().filter(|c| c.kind == "line").collect();
+    let lines: Vec<&Component> = envelope.iter().filter(|c| c.kind == Kind::Line).collect();
     envelope
         .iter()
-        .filter(|c| matches!(c.kind, "line" | "below_band") && c.f_hz < 0.5 * fd)
+        .filter(|c| matches!(c.kind, Kind::Line | Kind::BelowBand) && c.f_hz < 0.5 * fd)
         .filter_map(|low| {
             let fm = refine(low.f_hz).unwrap_or(low.f_hz);
             if known.iter().any(|k| (fm - k).abs() <= 1.5 * dfe) {
@@ -104,7 +105,7 @@ pub(super) fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>, out: &m
         let side: Vec<Component> = analysis
             .envelope
             .iter()
-            .filter(|c| c.kind == "line")
+            .filter(|c| c.kind == Kind::Line)
             .filter(|c| load_zone_line(c.f_hz, fd, fm, (2.0 * dfe).max(0.01 * c.f_hz)))
             .cloned()
             .collect();
@@ -195,11 +196,12 @@ pub(super) fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>, out: &m
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::residual::Domain;
 
     fn line(f_hz: f64) -> Component {
         Component {
-            domain: "envelope",
-            kind: "line",
+            domain: Domain::Envelope,
+            kind: Kind::Line,
             f_hz,
             width_hz: 1.46,
             excess_db: 12.0,

@@ -2,6 +2,7 @@
 
 use super::context::{has, TraceContext};
 use crate::model::Effect;
+use crate::model::EffectKind;
 use crate::residual::{ringdown_frequencies, Candidate, Check, Evidence};
 
 /// Offer nonlinear stiffness where ring-downs start faster than they end, more
@@ -10,7 +11,7 @@ pub(super) fn trace(ctx: &TraceContext<'_>, out: &mut Vec<Candidate>) {
     let model = ctx.model;
     let fs = ctx.cfg.fs_hz;
     // --- Amplitude-dependent resonance frequency: nonlinear stiffness.
-    if !has(model, "nonlinear_stiffness") {
+    if !has(model, EffectKind::NonlinearStiffness) {
         let fn_hz = model.get("ln_fn_hz").map_or(3000.0, f64::exp) as f32;
         let (lo, hi) = (0.75 * fn_hz, (1.25 * fn_hz).min(0.45 * fs));
         let rate = model
