@@ -15,17 +15,19 @@
 //! ```
 
 use std::collections::BTreeMap;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use burn::tensor::activation::softmax;
 use burn::tensor::Device;
 use pumptwin_core::dsstgat::{probabilities_into, Output};
+use pumptwin_core::features::FeatureNorm;
+use pumptwin_core::graph::GraphConfig;
 use serde::Serialize;
 
 use crate::commands::{LoadedRecord, RecordArgs};
 use pumptwin_data::featurize::{
-    feature_config, window_features, window_graphs, MaskCounts, WINDOW,
+    feature_config, window_features, window_graphs, MaskCounts, WindowFeatures, WINDOW,
 };
 use pumptwin_trainer::dataset::{
     copy_window_samples, windows_end_to_end, Dataset, NodeSet, DERIVED_NODES, NODES, N_INDICATORS,
@@ -187,25 +189,97 @@ fn predict_with<const N: usize>(
         starts,
     } = *input;
     // Derived nodes come from each window's own samples: the windows end to end.
-    let derive = pumptwin_data::derived::any_derived(&nodes);
-    let scratch;
-    let (src, src_starts): (&pumptwin_data::record::Recording, Vec<usize>) = if derive {
-        scratch = windows_end_to_end(rec, starts, true);
-        (&scratch, (0..starts.len()).map(|k| k * WINDOW).collect())
-    } else {
-        (rec, starts.to_vec())
+    let (scratch, src_starts) = feature_source(rec, starts, &nodes);
+    let src = Source {
+        rec: scratch.as_ref().unwrap_or(rec),
+        starts: &src_starts,
     };
+    let feats = featurize(&src, &nodes, cfg, starts, &args.record.input)?;
+    let (classes, norm, graph) = normalization_and_graph::<N>(model)?;
+    // The raw samples too, for a raw-signal baseline.
+    let with_raw = matches!(model, PredictModel::Burn { net, .. } if net.raw());
+    let ds = model_dataset(&feats, &norm, &graph, &src, &nodes, with_raw)?;
+    let probs = class_probabilities(model, &ds, with_raw, &classes, device)?;
+    let (windows, class_counts) = window_predictions(&feats, &probs, &classes, &nodes, rec.fs_hz);
+    let report = Prediction {
+        input: args.record.input.display().to_string(),
+        model: args.model.display().to_string(),
+        arch: match model {
+            PredictModel::Int8(_) => ARCH_INT8.to_string(),
+            PredictModel::Burn { cfg, .. } => cfg.report_name(),
+        },
+        fs_hz_input,
+        fs_hz_model: rec.fs_hz,
+        resampled: (fs_hz_input - rec.fs_hz).abs() > 1e-3,
+        missing_nodes: feats.missing,
+        no_signal_windows: feats.no_signal,
+        samples_after_last_window: starts.last().map_or(0, |s| rec.len() - (s + WINDOW)),
+        windows,
+        majority_class: majority_class(&class_counts),
+        class_counts,
+    };
+    write_report(&report, args.out.as_deref())?;
+    print_summary(&report);
+    Ok(())
+}
+
+/// The recording the features are read from and its window starts.
+struct Source<'a> {
+    /// The recording, or its windows laid end to end (derived nodes).
+    rec: &'a pumptwin_data::record::Recording,
+    /// Window starts in `rec`.
+    starts: &'a [usize],
+}
+
+/// The windows' samples for `nodes`: with derived nodes, the windows laid end to end
+/// (returned, with their starts in it), else the recording itself (`None`) at `starts`.
+fn feature_source<const N: usize>(
+    rec: &pumptwin_data::record::Recording,
+    starts: &[usize],
+    nodes: &[&'static str; N],
+) -> (Option<pumptwin_data::record::Recording>, Vec<usize>) {
+    if pumptwin_data::derived::any_derived(nodes) {
+        (
+            Some(windows_end_to_end(rec, starts, true)),
+            (0..starts.len()).map(|k| k * WINDOW).collect(),
+        )
+    } else {
+        (None, starts.to_vec())
+    }
+}
+
+/// Every window's core features and which windows have a usable sensor.
+struct Featurized<const N: usize> {
+    /// Per window, its `start` the one in the recording.
+    windows: Vec<WindowFeatures<N>>,
+    /// Per window: some sensor is usable there (else it is `no_signal`).
+    usable: Vec<bool>,
+    /// Windows with no usable sensor.
+    no_signal: usize,
+    /// Model nodes the recording has no channel for.
+    missing: Vec<String>,
+}
+
+/// Features of every window of `src`, with starts `starts` in the recording; refuses a
+/// recording without a node channel or without a window that has a usable sensor.
+fn featurize<const N: usize>(
+    src: &Source<'_>,
+    nodes: &[&'static str; N],
+    cfg: &pumptwin_core::features::FeatureConfig,
+    starts: &[usize],
+    input: &Path,
+) -> Result<Featurized<N>> {
     let mut counts = MaskCounts::default();
-    let mut wf = window_features(src, &nodes, cfg, &src_starts, &mut counts);
+    let mut wf = window_features(src.rec, nodes, cfg, src.starts, &mut counts);
     for (w, &s) in wf.iter_mut().zip(starts) {
         w.start = s;
     }
     let missing: Vec<String> = nodes
         .iter()
-        .filter(|n| src.channel(n).is_none())
+        .filter(|n| src.rec.channel(n).is_none())
         .map(|n| (*n).to_string())
         .collect();
-    crate::commands::ensure_a_node_channel(src, &nodes, &args.record.input)?;
+    crate::commands::ensure_a_node_channel(src.rec, nodes, input)?;
     // A window with no usable sensor (every channel missing, dead or non-finite
     // there) has nothing to diagnose: it is reported as `no_signal`, counted, and
     // left out of the model and the majority, never given a class.
@@ -215,34 +289,72 @@ fn predict_with<const N: usize>(
         no_signal < wf.len(),
         "{}: no window has a usable sensor ({} windows; masked node-windows: {} missing \
          channel, {} dead or non-finite signal)",
-        args.record.input.display(),
+        input.display(),
         wf.len(),
         counts.missing_channel,
         counts.rejected_signal
     );
-    let (classes, norm, graph) = match model {
+    Ok(Featurized {
+        windows: wf,
+        usable,
+        no_signal,
+        missing,
+    })
+}
+
+/// The model's classes, feature normalization and graph configuration.
+fn normalization_and_graph<const N: usize>(
+    model: &PredictModel,
+) -> Result<(Vec<String>, FeatureNorm, GraphConfig<N>)> {
+    Ok(match model {
         PredictModel::Int8(m) => {
             let (norm, _) = m.norms()?;
             (m.classes(), norm, m.file.graph_config::<N>()?)
         }
         PredictModel::Burn { cfg, norm, .. } => (cfg.classes.clone(), *norm, cfg.graph_config()),
-    };
-    // The raw samples too, for a raw-signal baseline.
-    let with_raw = matches!(model, PredictModel::Burn { net, .. } if net.raw());
+    })
+}
+
+/// The model's input: the normalized features and dynamic graphs of the usable
+/// windows (with their raw samples when `with_raw`), in window order.
+fn model_dataset<const N: usize>(
+    feats: &Featurized<N>,
+    norm: &FeatureNorm,
+    graph: &GraphConfig<N>,
+    src: &Source<'_>,
+    nodes: &[&'static str; N],
+    with_raw: bool,
+) -> Result<Dataset> {
     let mut ds = Dataset::new(N);
-    for (k, w) in wf.iter().enumerate().filter(|&(k, _)| usable[k]) {
-        let (x, a) = window_graphs(w, &norm, &graph)
+    for (k, w) in feats
+        .windows
+        .iter()
+        .enumerate()
+        .filter(|&(k, _)| feats.usable[k])
+    {
+        let (x, a) = window_graphs(w, norm, graph)
             .map_err(|e| anyhow::anyhow!("window at sample {}: {e}", w.start))?;
         ds.push(&x, &a, &w.mask.0, &[0.0; N_INDICATORS], 0, 0);
         if with_raw {
             let o = ds.raw.len();
             ds.raw.resize(o + ds.raw_per_window(), 0.0);
-            copy_window_samples(src, &nodes, src_starts[k], &mut ds.raw[o..]);
+            copy_window_samples(src.rec, nodes, src.starts[k], &mut ds.raw[o..]);
         }
     }
-    let probs: Vec<Vec<f32>> = match model {
+    Ok(ds)
+}
+
+/// The model's class probabilities for every window of `ds`, in order.
+fn class_probabilities(
+    model: &PredictModel,
+    ds: &Dataset,
+    with_raw: bool,
+    classes: &[String],
+    device: &Device,
+) -> Result<Vec<Vec<f32>>> {
+    Ok(match model {
         PredictModel::Int8(m) => {
-            let outs: Vec<Output<16, 8>> = pumptwin_trainer::export::int8_outputs(&m.model, &ds)?;
+            let outs: Vec<Output<16, 8>> = pumptwin_trainer::export::int8_outputs(&m.model, ds)?;
             let c = m.model.classes();
             outs.iter()
                 .map(|o| {
@@ -260,7 +372,7 @@ fn predict_with<const N: usize>(
             let idx: Vec<usize> = (0..ds.len()).collect();
             let mut out = Vec::with_capacity(ds.len());
             for chunk in idx.chunks(256) {
-                let b = Batch::with_parts(&ds, chunk, parts, device);
+                let b = Batch::with_parts(ds, chunk, parts, device);
                 let p = softmax(net.output(&b).logits, 1);
                 let v = p
                     .into_data()
@@ -270,11 +382,23 @@ fn predict_with<const N: usize>(
             }
             out
         }
-    };
-    let mut windows = Vec::with_capacity(wf.len());
+    })
+}
+
+/// Per window its class, probabilities and masked nodes (a window with no usable
+/// sensor is [`NO_SIGNAL`]), and the windows per class. `probs` are the diagnosed
+/// windows' probabilities in window order; `fs_hz` the recording's rate.
+fn window_predictions<const N: usize>(
+    feats: &Featurized<N>,
+    probs: &[Vec<f32>],
+    classes: &[String],
+    nodes: &[&'static str; N],
+    fs_hz: f32,
+) -> (Vec<WindowPrediction>, BTreeMap<String, usize>) {
+    let mut windows = Vec::with_capacity(feats.windows.len());
     let mut class_counts: BTreeMap<String, usize> = BTreeMap::new();
     let mut probs = probs.iter();
-    for (w, &ok) in wf.iter().zip(&usable) {
+    for (w, &ok) in feats.windows.iter().zip(&feats.usable) {
         // The diagnosed windows' probabilities come in window order.
         let (class, probabilities) = match ok.then(|| probs.next()).flatten() {
             Some(p) => {
@@ -289,7 +413,7 @@ fn predict_with<const N: usize>(
             _ => (NO_SIGNAL.to_string(), BTreeMap::new()),
         };
         windows.push(WindowPrediction {
-            start_s: w.start as f64 / f64::from(rec.fs_hz),
+            start_s: w.start as f64 / f64::from(fs_hz),
             class,
             probabilities,
             masked_nodes: nodes
@@ -300,30 +424,22 @@ fn predict_with<const N: usize>(
                 .collect(),
         });
     }
-    let majority_class = class_counts
+    (windows, class_counts)
+}
+
+/// The most frequent class (empty when no window was diagnosed).
+fn majority_class(class_counts: &BTreeMap<String, usize>) -> String {
+    class_counts
         .iter()
         .max_by_key(|(_, n)| **n)
         .map(|(c, _)| c.clone())
-        .unwrap_or_default();
-    let report = Prediction {
-        input: args.record.input.display().to_string(),
-        model: args.model.display().to_string(),
-        arch: match model {
-            PredictModel::Int8(_) => ARCH_INT8.to_string(),
-            PredictModel::Burn { cfg, .. } => cfg.report_name(),
-        },
-        fs_hz_input,
-        fs_hz_model: rec.fs_hz,
-        resampled: (fs_hz_input - rec.fs_hz).abs() > 1e-3,
-        missing_nodes: missing,
-        no_signal_windows: no_signal,
-        samples_after_last_window: starts.last().map_or(0, |s| rec.len() - (s + WINDOW)),
-        windows,
-        majority_class,
-        class_counts,
-    };
-    let text = serde_json::to_string_pretty(&report)? + "\n";
-    match &args.out {
+        .unwrap_or_default()
+}
+
+/// Write the JSON report to `out`, or to standard output.
+fn write_report(report: &Prediction, out: Option<&Path>) -> Result<()> {
+    let text = serde_json::to_string_pretty(report)? + "\n";
+    match out {
         Some(path) => std::fs::write(path, &text)
             .with_context(|| format!("cannot write {}", path.display()))?,
         None => {
@@ -331,6 +447,11 @@ fn predict_with<const N: usize>(
             std::io::stdout().lock().write_all(text.as_bytes())?;
         }
     }
+    Ok(())
+}
+
+/// The one-line summary on standard error.
+fn print_summary(report: &Prediction) {
     eprintln!(
         "{}: {} windows at {} Hz{}; majority class {} ({} of {}){}{}",
         report.input,
@@ -364,5 +485,4 @@ fn predict_with<const N: usize>(
             )
         }
     );
-    Ok(())
 }

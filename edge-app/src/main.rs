@@ -59,7 +59,7 @@ use anyhow::Context;
 use clap::{Parser, ValueEnum};
 use pumptwin_core::fir::{BAND_LIMIT_HZ, MAX_CUTOFF_FRACTION};
 use pumptwin_edge::candump::{CandumpReplay, FrameSource};
-use pumptwin_edge::gateway::Gateway;
+use pumptwin_edge::gateway::{Gateway, Publisher};
 use pumptwin_edge::live::{BusPublisher, SocketCanSource};
 use pumptwin_edge::model::{DiagnosisFrameEncoder, ModelDiagnoser};
 use pumptwin_edge::mqtt::{MqttConfig, MqttSink};
@@ -70,9 +70,9 @@ use pumptwin_edge::report::window_json;
 use pumptwin_edge::sensor_map::SensorMap;
 use std::fs::{File, OpenOptions};
 use std::io::{self, BufRead, BufReader, BufWriter, Write};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 /// Replay speed.
@@ -201,13 +201,57 @@ fn parse_cli() -> anyhow::Result<Cli> {
 
 fn main() -> anyhow::Result<()> {
     let cli = parse_cli()?;
+    let stop = stop_on_signals()?;
+    let map = SensorMap::load(&cli.sensors)?;
+    let mut out = open_output(cli.out.as_deref())?;
+    let speed = match cli.speed {
+        SpeedArg::Max => Speed::Max,
+        SpeedArg::Realtime => Speed::Realtime,
+    };
+    let mut mqtt = start_mqtt(&cli)?;
+    let pipeline = Pipeline::new(map).context("building the signal path")?;
+    let mut gateway = Gateway::new(pipeline, Pacer::new(speed)).with_stop(Arc::clone(&stop));
+    let mut encoder = DiagnosisFrameEncoder::new(Vec::new(), Vec::new());
+    if let Some(path) = &cli.model {
+        let diagnoser = load_diagnoser(path, gateway.pipeline())?;
+        encoder = DiagnosisFrameEncoder::for_model(&diagnoser);
+        gateway = gateway.with_diagnoser(Box::new(diagnoser));
+    }
+    let Input {
+        mut source,
+        what,
+        bus,
+    } = open_input(&cli, &stop)?;
+    let metrics = start_metrics(cli.metrics_addr)?;
+    gateway = gateway.with_metrics(Arc::clone(&metrics));
+    gateway = gateway.with_publisher(publisher(mqtt.as_mut(), bus, encoder));
+    let result = gateway.run(&mut *source, &mut out, &mut io::stderr());
+    out.flush().context("flushing the output")?;
+    print_health_and_latency(&gateway);
+    let publish_failures = gateway.publish_failures;
+    drop(gateway);
+    if let Some(m) = mqtt {
+        finish_mqtt(m);
+    }
+    if publish_failures > 0 {
+        eprintln!("pumptwin-edge: {publish_failures} diagnosis frames could not be sent");
+    }
+    result.map(|_| ()).with_context(|| what)
+}
+
+/// A flag SIGINT and SIGTERM set: the gateway ends the run between frames.
+fn stop_on_signals() -> anyhow::Result<Arc<AtomicBool>> {
     let stop = Arc::new(AtomicBool::new(false));
     for sig in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
         signal_hook::flag::register(sig, Arc::clone(&stop))
             .context("installing signal handlers")?;
     }
-    let map = SensorMap::load(&cli.sensors)?;
-    let mut out: Box<dyn Write> = match &cli.out {
+    Ok(stop)
+}
+
+/// Where the JSON lines go: appended to `path`, or standard output.
+fn open_output(path: Option<&Path>) -> anyhow::Result<Box<dyn Write>> {
+    Ok(match path {
         Some(path) => Box::new(BufWriter::new(
             OpenOptions::new()
                 .create(true)
@@ -216,12 +260,12 @@ fn main() -> anyhow::Result<()> {
                 .with_context(|| format!("opening output {}", path.display()))?,
         )),
         None => Box::new(io::stdout().lock()),
-    };
-    let speed = match cli.speed {
-        SpeedArg::Max => Speed::Max,
-        SpeedArg::Realtime => Speed::Realtime,
-    };
-    let mut mqtt = match &cli.mqtt {
+    })
+}
+
+/// The MQTT telemetry sink, started when `--mqtt` is given.
+fn start_mqtt(cli: &Cli) -> anyhow::Result<Option<MqttSink>> {
+    Ok(match &cli.mqtt {
         Some(url) => Some(
             MqttSink::start(MqttConfig {
                 url: url.clone(),
@@ -239,36 +283,49 @@ fn main() -> anyhow::Result<()> {
             .context("starting MQTT telemetry")?,
         ),
         None => None,
-    };
-    let pipeline = Pipeline::new(map).context("building the signal path")?;
-    let mut gateway = Gateway::new(pipeline, Pacer::new(speed)).with_stop(Arc::clone(&stop));
-    let mut encoder = DiagnosisFrameEncoder::new(Vec::new(), Vec::new());
-    if let Some(path) = &cli.model {
-        // The model reads features up to the common band limit (its training data were
-        // low-passed there): a rate whose anti-alias cutoff (0.45·fs) falls below it
-        // would feed it other features than it learned, so it is refused, not run.
-        let reach = gateway.pipeline().feature_config().envelope_band.hi_hz;
-        anyhow::ensure!(
-            reach >= BAND_LIMIT_HZ,
-            "model {}: it reads features up to the common {BAND_LIMIT_HZ} Hz band limit, but \
-             the sensor map's fs_hz = {} Hz reaches {reach} Hz (0.45·fs); the sensors must \
-             sample at {:.0} Hz or more",
-            path.display(),
-            gateway.pipeline().feature_config().fs_hz,
-            (BAND_LIMIT_HZ / MAX_CUTOFF_FRACTION).ceil()
-        );
-        let diagnoser = ModelDiagnoser::load(path, gateway.pipeline().channel_names())?;
-        let unmapped: Vec<&str> = diagnoser.unmapped().collect();
-        if !unmapped.is_empty() {
-            eprintln!(
-                "pumptwin-edge: model sensors {unmapped:?} are not in the sensor map: masked"
-            );
-        }
-        encoder = DiagnosisFrameEncoder::for_model(&diagnoser);
-        gateway = gateway.with_diagnoser(Box::new(diagnoser));
+    })
+}
+
+/// The int8 model at `path`, its sensors mapped to `pipeline`'s channels (those not in
+/// the sensor map are named on standard error and masked); refused when the sensor
+/// map's rate cannot reach the model's band limit.
+fn load_diagnoser(path: &Path, pipeline: &Pipeline) -> anyhow::Result<ModelDiagnoser> {
+    // The model reads features up to the common band limit (its training data were
+    // low-passed there): a rate whose anti-alias cutoff (0.45·fs) falls below it
+    // would feed it other features than it learned, so it is refused, not run.
+    let reach = pipeline.feature_config().envelope_band.hi_hz;
+    anyhow::ensure!(
+        reach >= BAND_LIMIT_HZ,
+        "model {}: it reads features up to the common {BAND_LIMIT_HZ} Hz band limit, but \
+         the sensor map's fs_hz = {} Hz reaches {reach} Hz (0.45·fs); the sensors must \
+         sample at {:.0} Hz or more",
+        path.display(),
+        pipeline.feature_config().fs_hz,
+        (BAND_LIMIT_HZ / MAX_CUTOFF_FRACTION).ceil()
+    );
+    let diagnoser = ModelDiagnoser::load(path, pipeline.channel_names())?;
+    let unmapped: Vec<&str> = diagnoser.unmapped().collect();
+    if !unmapped.is_empty() {
+        eprintln!("pumptwin-edge: model sensors {unmapped:?} are not in the sensor map: masked");
     }
+    Ok(diagnoser)
+}
+
+/// The frame source of a run.
+struct Input {
+    /// The frames.
+    source: Box<dyn FrameSource>,
+    /// What the run reads, for its error context (`replaying FILE`, `reading IFACE`).
+    what: String,
+    /// The bus the diagnosis frames are sent on (`--can` with `--publish-id`).
+    bus: Option<BusPublisher>,
+}
+
+/// Open the candump log (`--replay`) or the SocketCAN interface (`--can`, with its
+/// diagnosis publisher when `--publish-id` is given).
+fn open_input(cli: &Cli, stop: &Arc<AtomicBool>) -> anyhow::Result<Input> {
     let mut bus: Option<BusPublisher> = None;
-    let (mut source, what): (Box<dyn FrameSource>, String) = match (&cli.replay, &cli.can) {
+    let (source, what): (Box<dyn FrameSource>, String) = match (&cli.replay, &cli.can) {
         (Some(path), _) => {
             let input: Box<dyn BufRead> = if path.as_os_str() == "-" {
                 Box::new(io::stdin().lock())
@@ -293,7 +350,7 @@ fn main() -> anyhow::Result<()> {
             (
                 Box::new(SocketCanSource::new(
                     iface,
-                    Arc::clone(&stop),
+                    Arc::clone(stop),
                     idle,
                     cli.publish_id,
                 )),
@@ -302,29 +359,43 @@ fn main() -> anyhow::Result<()> {
         }
         (None, None) => anyhow::bail!("give --replay FILE or --can IFACE"),
     };
-    let metrics = Arc::new(std::sync::Mutex::new(Metrics::default()));
-    if let Some(addr) = cli.metrics_addr {
+    Ok(Input { source, what, bus })
+}
+
+/// The health counters the gateway updates, served for Prometheus at `addr` when
+/// given (the address bound is said on standard error).
+fn start_metrics(addr: Option<std::net::SocketAddr>) -> anyhow::Result<Arc<Mutex<Metrics>>> {
+    let metrics = Arc::new(Mutex::new(Metrics::default()));
+    if let Some(addr) = addr {
         let bound = serve_metrics(addr, Arc::clone(&metrics))
             .with_context(|| format!("serving metrics on {addr}"))?;
         eprintln!("pumptwin-edge: metrics at http://{bound}/metrics");
     }
-    {
-        let mut mqtt_ref = mqtt.as_mut();
-        gateway = gateway.with_metrics(Arc::clone(&metrics));
-        gateway = gateway.with_publisher(Box::new(move |w, d| {
-            if let Some(m) = mqtt_ref.as_deref_mut() {
-                let line = window_json(w, d).map_err(io::Error::other)?;
-                let health = serde_json::to_value(w.health).map_err(io::Error::other)?;
-                m.send_window(&line, &health);
-            }
-            match &bus {
-                Some(b) => b.send(&encoder.encode(w, d)),
-                None => Ok(()),
-            }
-        }));
-    }
-    let result = gateway.run(&mut *source, &mut out, &mut io::stderr());
-    out.flush().context("flushing the output")?;
+    Ok(metrics)
+}
+
+/// What the gateway does with every window after its line: the line and health to
+/// MQTT (when started), the compact diagnosis frame to the bus (when publishing).
+fn publisher<'d>(
+    mut mqtt: Option<&'d mut MqttSink>,
+    bus: Option<BusPublisher>,
+    mut encoder: DiagnosisFrameEncoder,
+) -> Publisher<'d> {
+    Box::new(move |w, d| {
+        if let Some(m) = mqtt.as_deref_mut() {
+            let line = window_json(w, d).map_err(io::Error::other)?;
+            let health = serde_json::to_value(w.health).map_err(io::Error::other)?;
+            m.send_window(&line, &health);
+        }
+        match &bus {
+            Some(b) => b.send(&encoder.encode(w, d)),
+            None => Ok(()),
+        }
+    })
+}
+
+/// The run's health summary and frame → line latency on standard error.
+fn print_health_and_latency(gateway: &Gateway<'_>) {
     let health = gateway.pipeline().health();
     eprintln!("pumptwin-edge: {health}");
     if let (Some(p50), Some(p99)) = (
@@ -337,17 +408,13 @@ fn main() -> anyhow::Result<()> {
             gateway.latency.quantile_us(1.0).unwrap_or(0)
         );
     }
-    let publish_failures = gateway.publish_failures;
-    drop(gateway);
-    if let Some(m) = mqtt {
-        let s = m.finish();
-        eprintln!(
-            "pumptwin-edge: mqtt: produced {}, delivered {}, dropped {}, pending {}, resent {}, connects {}",
-            s.produced, s.delivered, s.dropped, s.pending, s.resent, s.connects
-        );
-    }
-    if publish_failures > 0 {
-        eprintln!("pumptwin-edge: {publish_failures} diagnosis frames could not be sent");
-    }
-    result.map(|_| ()).with_context(|| what)
+}
+
+/// Drain the MQTT queue (up to its timeout) and say what was delivered.
+fn finish_mqtt(mqtt: MqttSink) {
+    let s = mqtt.finish();
+    eprintln!(
+        "pumptwin-edge: mqtt: produced {}, delivered {}, dropped {}, pending {}, resent {}, connects {}",
+        s.produced, s.delivered, s.dropped, s.pending, s.resent, s.connects
+    );
 }

@@ -225,6 +225,67 @@ fn main() -> ! {
     let top = stack_top();
     let bottom = stack_bottom();
     let before = top - sp();
+    print_banner(&mut c, bottom, top, before);
+
+    // SAFETY: `main` runs once and is the only code touching these statics. The zeroed
+    // arena is a valid `ModelFile` (see `Arena`); the model borrow ends with the build,
+    // before the scratch is written over it.
+    #[cfg(not(feature = "net-on-stack"))]
+    let model: &mut ModelFile = unsafe {
+        (*addr_of_mut!(ARENA))
+            .as_mut_ptr()
+            .cast::<ModelFile>()
+            .as_mut()
+            .unwrap_or_else(|| halt())
+    };
+    #[cfg(feature = "net-on-stack")]
+    let (model, scratch) = unsafe {
+        (
+            (*addr_of_mut!(MODEL)).assume_init_mut(),
+            &mut *addr_of_mut!(SCRATCH),
+        )
+    };
+    let mut out = NetOutput::default();
+
+    let s_decode = decode(&mut c, model);
+    #[cfg(not(feature = "net-on-stack"))]
+    {
+        let (net, s_build) = build_in_static(&mut c, model);
+        // `model` is not used again: the scratch takes its place.
+        let s_forward = forward_over_model(&mut c, net, &mut out);
+        say!(
+            c,
+            "STACK decode={} build={} forward={} max={}",
+            s_decode,
+            s_build,
+            s_forward,
+            s_decode.max(s_build).max(s_forward)
+        );
+    }
+    #[cfg(feature = "net-on-stack")]
+    {
+        let s_both = build_and_forward_on_stack(&mut c, model, scratch, &mut out);
+        say!(
+            c,
+            "STACK decode={} build+forward={} max={}",
+            s_decode,
+            s_both,
+            s_decode.max(s_both)
+        );
+    }
+
+    print_logits(&mut c, &out);
+    check_golden(&mut c, &out)
+}
+
+// The steps of `main`. Each is `#[inline(always)]`: they run in `main`'s frame, as
+// before they were split out, so that the painted peaks (measured from the initial
+// SP) count the same frames; only the `phase_*` functions have frames of their own.
+
+/// The probe's banner: model, type sizes and the stack region (`[bottom, top)`, of
+/// which `before` bytes were in use before painting).
+#[inline(always)]
+fn print_banner(c: &mut Console, bottom: usize, top: usize, before: usize) {
     say!(c, "pumptwin firmware probe (thumbv7em-none-eabihf)");
     say!(
         c,
@@ -259,33 +320,17 @@ fn main() -> ! {
         top - bottom,
         before
     );
+}
 
-    // SAFETY: `main` runs once and is the only code touching these statics. The zeroed
-    // arena is a valid `ModelFile` (see `Arena`); the model borrow ends with the build,
-    // before the scratch is written over it.
-    #[cfg(not(feature = "net-on-stack"))]
-    let model: &mut ModelFile = unsafe {
-        (*addr_of_mut!(ARENA))
-            .as_mut_ptr()
-            .cast::<ModelFile>()
-            .as_mut()
-            .unwrap_or_else(|| halt())
-    };
-    #[cfg(feature = "net-on-stack")]
-    let (model, scratch) = unsafe {
-        (
-            (*addr_of_mut!(MODEL)).assume_init_mut(),
-            &mut *addr_of_mut!(SCRATCH),
-        )
-    };
-    let mut out = NetOutput::default();
-
-    // (a) decode
+/// (a) Decode the model from flash into `model`; says its dimensions and returns the
+/// phase's peak stack.
+#[inline(always)]
+fn decode(c: &mut Console, model: &mut ModelFile) -> usize {
     paint();
     let r = phase_decode(model);
     let s_decode = peak_stack();
     if let Err(e) = r {
-        fail(&mut c, "decode_into", e);
+        fail(c, "decode_into", e);
     }
     say!(
         c,
@@ -300,76 +345,84 @@ fn main() -> ! {
         model.dims.indicators
     );
     say!(c, "stack peak (a) decode_into:      {:6} B", s_decode);
+    s_decode
+}
 
-    #[cfg(not(feature = "net-on-stack"))]
-    {
-        // (b) build the network into its static
-        // SAFETY: borrowed once, see above.
-        let place = unsafe { &mut *addr_of_mut!(NET) };
-        paint();
-        let r = phase_build(model, place);
-        let s_build = peak_stack();
-        let net = match r {
-            Ok(net) => net,
-            Err(e) => fail(&mut c, "from_model_file", e),
-        };
-        say!(
-            c,
-            "stack peak (b) DsStgat::load:    {:6} B (network in a static, built in place)",
-            s_build
-        );
+/// (b) Build the network into its static `NET`; returns it and the phase's peak stack.
+#[cfg(not(feature = "net-on-stack"))]
+#[inline(always)]
+fn build_in_static(c: &mut Console, model: &ModelFile) -> (&'static Net, usize) {
+    // SAFETY: borrowed once, see `main`.
+    let place = unsafe { &mut *addr_of_mut!(NET) };
+    paint();
+    let r = phase_build(model, place);
+    let s_build = peak_stack();
+    let net = match r {
+        Ok(net) => net,
+        Err(e) => fail(c, "from_model_file", e),
+    };
+    say!(
+        c,
+        "stack peak (b) DsStgat::load:    {:6} B (network in a static, built in place)",
+        s_build
+    );
+    (net, s_build)
+}
 
-        // The model is no longer read: the scratch takes its place, zeroed in place
-        // (a `Scratch` is integer arrays only, so all-zero bytes are `Scratch::new()`;
-        // writing `Scratch::new()` by value would first build it on the stack).
-        // SAFETY: the arena is aligned and sized for both members; `model` is not used
-        // again; every bit pattern of integer arrays is a valid value.
-        let scratch: &mut NetScratch = unsafe {
-            let p = (*addr_of_mut!(ARENA)).as_mut_ptr().cast::<NetScratch>();
-            core::ptr::write_bytes(p, 0, 1);
-            &mut *p
-        };
+/// (c) One inference into `out`, its scratch in the arena over the decoded model
+/// (which must no longer be read); returns the phase's peak stack.
+#[cfg(not(feature = "net-on-stack"))]
+#[inline(always)]
+fn forward_over_model(c: &mut Console, net: &Net, out: &mut NetOutput) -> usize {
+    // The model is no longer read: the scratch takes its place, zeroed in place
+    // (a `Scratch` is integer arrays only, so all-zero bytes are `Scratch::new()`;
+    // writing `Scratch::new()` by value would first build it on the stack).
+    // SAFETY: the arena is aligned and sized for both members; `model` is not used
+    // again; every bit pattern of integer arrays is a valid value.
+    let scratch: &mut NetScratch = unsafe {
+        let p = (*addr_of_mut!(ARENA)).as_mut_ptr().cast::<NetScratch>();
+        core::ptr::write_bytes(p, 0, 1);
+        &mut *p
+    };
 
-        // (c) one inference
-        paint();
-        let r = phase_forward(net, scratch, &mut out);
-        let s_forward = peak_stack();
-        if let Err(e) = r {
-            fail(&mut c, "forward", e);
-        }
-        say!(c, "stack peak (c) forward::<8, 3>:  {:6} B", s_forward);
-        say!(
-            c,
-            "STACK decode={} build={} forward={} max={}",
-            s_decode,
-            s_build,
-            s_forward,
-            s_decode.max(s_build).max(s_forward)
-        );
+    paint();
+    let r = phase_forward(net, scratch, out);
+    let s_forward = peak_stack();
+    if let Err(e) = r {
+        fail(c, "forward", e);
     }
-    #[cfg(feature = "net-on-stack")]
-    {
-        paint();
-        let r = phase_build_and_forward(model, scratch, &mut out);
-        let s_both = peak_stack();
-        if let Err(e) = r {
-            fail(&mut c, "from_model_file + forward", e);
-        }
-        say!(
-            c,
-            "stack peak (b+c) from_model_file + forward, network on the stack: {:6} B",
-            s_both
-        );
-        say!(
-            c,
-            "STACK decode={} build+forward={} max={}",
-            s_decode,
-            s_both,
-            s_decode.max(s_both)
-        );
-    }
+    say!(c, "stack peak (c) forward::<8, 3>:  {:6} B", s_forward);
+    s_forward
+}
 
-    // The console itself (formatting + semihosting) for reference.
+/// (b+c) `net-on-stack`: build the network as a local and run it into `out`; returns
+/// the phase's peak stack.
+#[cfg(feature = "net-on-stack")]
+#[inline(always)]
+fn build_and_forward_on_stack(
+    c: &mut Console,
+    model: &ModelFile,
+    scratch: &mut NetScratch,
+    out: &mut NetOutput,
+) -> usize {
+    paint();
+    let r = phase_build_and_forward(model, scratch, out);
+    let s_both = peak_stack();
+    if let Err(e) = r {
+        fail(c, "from_model_file + forward", e);
+    }
+    say!(
+        c,
+        "stack peak (b+c) from_model_file + forward, network on the stack: {:6} B",
+        s_both
+    );
+    s_both
+}
+
+/// The logits and class, and the peak stack of that one print (the console itself:
+/// formatting + semihosting) for reference.
+#[inline(always)]
+fn print_logits(c: &mut Console, out: &NetOutput) {
     paint();
     say!(
         c,
@@ -383,7 +436,12 @@ fn main() -> ! {
         "stack peak of one formatted semihosting print: {} B",
         s_print
     );
+}
 
+/// Exit with success when the logit codes and class equal the golden ones exactly
+/// (the padding logits zero), else say what was expected and exit with failure.
+#[inline(always)]
+fn check_golden(c: &mut Console, out: &NetOutput) -> ! {
     let ok = out.logits[..golden::CLASSES] == golden::INT8_LOGITS
         && out.logits[golden::CLASSES..].iter().all(|&v| v == 0)
         && out.class == golden::INT8_CLASS;

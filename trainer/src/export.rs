@@ -513,6 +513,9 @@ pub fn export_model(args: &ExportSpec) -> Result<()> {
     }
 }
 
+/// [`export_model`] for a network with hidden size `H`: calibrate, quantize and write
+/// the model file, then measure parity through the file as written and write the
+/// golden vectors, the model card and the parity figures beside it.
 fn export_with<const H: usize>(
     args: &ExportSpec,
     cfg: &TrainConfig,
@@ -521,25 +524,159 @@ fn export_with<const H: usize>(
     device: &Device,
 ) -> Result<()> {
     let classes = data.classes().len();
-    let float = float_reference::<H>(burn_model)?;
+    let mut float = FloatRun::<H>::new(float_reference::<H>(burn_model)?);
     // Calibration on the training side.
-    let mut ranges = Ranges::default();
-    let mut sf = Box::new(ScratchF32::<STEPS, N_NODES, H>::new());
-    let mut of = OutputF32::default();
-    for k in 0..data.train.len() {
-        let w = CoreWindow::of(&data.train, k);
-        float
-            .forward_observed(&w.x, &w.adj, &w.mask, &mut of, &mut sf, &mut ranges)
-            .map_err(|e| anyhow::anyhow!("calibration window {k}: {e}"))?;
-    }
-    let q = DsStgat::<FEATURES, H, MODEL_CLASSES, MODEL_INDICATORS>::from_f32(&float, &ranges)
+    let ranges = float.calibrate(&data.train)?;
+    let q = DsStgat::<FEATURES, H, MODEL_CLASSES, MODEL_INDICATORS>::from_f32(&float.net, &ranges)
         .map_err(|e| anyhow::anyhow!("quantization failed: {e}"))?;
     // The model file.
+    let buf = encode_model_file(&q, &args.out, data)?;
+    let len = buf.len();
+    write_model_file(&args.out, &buf)?;
+    let sha = sha256_hex(&buf);
+    // Parity, through the file as written.
+    let loaded = load_model_file(&args.out)?;
+    let test = &data.test;
+    let burn = burn_logits(burn_model, test, cfg.eval_batch_size, device)?;
+    let int8 = int8_outputs(&loaded.model, test)?;
+    let outs = TestOutputs {
+        test,
+        burn: &burn,
+        int8: &int8,
+        scale: loaded.model.logit_scale().get(),
+        classes,
+    };
+    let parity = float.parity(&outs)?;
+    let golden = golden_vectors(&args.out, args.golden, &outs, &sha);
+    let golden_path = sibling(&args.out, "golden.json");
+    std::fs::write(&golden_path, serde_json::to_string(&golden)? + "\n")
+        .with_context(|| format!("cannot write {}", golden_path.display()))?;
+    let card_path = sibling(&args.out, "md");
+    std::fs::write(
+        &card_path,
+        model_card(args, cfg, data, &parity, &sha, len, &ranges),
+    )
+    .with_context(|| format!("cannot write {}", card_path.display()))?;
+    eprintln!(
+        "wrote {} ({len} bytes, sha256 {sha}), {}, {}",
+        args.out.display(),
+        golden_path.display(),
+        card_path.display()
+    );
+    print_parity(&parity);
+    let parity_path = sibling(&args.out, "parity.json");
+    std::fs::write(&parity_path, serde_json::to_string_pretty(&parity)? + "\n")?;
+    Ok(())
+}
+
+/// The core float reference with one set of run buffers, used by the calibration and
+/// again by the parity check.
+struct FloatRun<const H: usize> {
+    /// The float network.
+    net: DsStgatF32<FEATURES, H, MODEL_CLASSES, MODEL_INDICATORS>,
+    /// Its scratch.
+    scratch: Box<ScratchF32<STEPS, N_NODES, H>>,
+    /// Its output (the last window's).
+    out: OutputF32<MODEL_CLASSES, MODEL_INDICATORS>,
+}
+
+impl<const H: usize> FloatRun<H> {
+    fn new(net: DsStgatF32<FEATURES, H, MODEL_CLASSES, MODEL_INDICATORS>) -> Self {
+        Self {
+            net,
+            scratch: Box::new(ScratchF32::<STEPS, N_NODES, H>::new()),
+            out: OutputF32::default(),
+        }
+    }
+
+    /// The activation ranges over every window of `train` (the quantization's
+    /// calibration).
+    fn calibrate(&mut self, train: &Dataset) -> Result<Ranges> {
+        let mut ranges = Ranges::default();
+        for k in 0..train.len() {
+            let w = CoreWindow::of(train, k);
+            self.net
+                .forward_observed(
+                    &w.x,
+                    &w.adj,
+                    &w.mask,
+                    &mut self.out,
+                    &mut self.scratch,
+                    &mut ranges,
+                )
+                .map_err(|e| anyhow::anyhow!("calibration window {k}: {e}"))?;
+        }
+        Ok(ranges)
+    }
+
+    /// Parity of the int8 core and of this float reference with the burn model on
+    /// the test side.
+    fn parity(&mut self, o: &TestOutputs<'_>) -> Result<Parity> {
+        let test = o.test;
+        let mut parity = Parity {
+            windows: test.len(),
+            float_accuracy: 0.0,
+            int8_accuracy: 0.0,
+            agreement: 0.0,
+            max_logit_diff: 0.0,
+            max_relative_logit_diff: 0.0,
+            max_reference_diff: 0.0,
+        };
+        let (mut ok_f, mut ok_q, mut same) = (0usize, 0usize, 0usize);
+        for k in 0..test.len() {
+            let label = test.label[k] as usize;
+            let bl = &o.burn[k];
+            let fc = argmax(bl);
+            let w = CoreWindow::of(test, k);
+            self.net
+                .forward(&w.x, &w.adj, &w.mask, &mut self.out, &mut self.scratch)
+                .map_err(|e| anyhow::anyhow!("float reference on window {k}: {e}"))?;
+            let range = bl.iter().fold(1.0f32, |m, v| m.max(v.abs()));
+            for c in 0..o.classes {
+                let d = (bl[c] - o.scale * o.int8[k].logits[c] as f32).abs();
+                parity.max_logit_diff = parity.max_logit_diff.max(d);
+                parity.max_relative_logit_diff = parity.max_relative_logit_diff.max(d / range);
+                parity.max_reference_diff = parity
+                    .max_reference_diff
+                    .max((bl[c] - self.out.logits[c]).abs());
+            }
+            ok_f += usize::from(fc == label);
+            ok_q += usize::from(o.int8[k].class == label);
+            same += usize::from(fc == o.int8[k].class);
+        }
+        let n = test.len().max(1) as f64;
+        parity.float_accuracy = ok_f as f64 / n;
+        parity.int8_accuracy = ok_q as f64 / n;
+        parity.agreement = same as f64 / n;
+        Ok(parity)
+    }
+}
+
+/// The test side with the burn model's and the written int8 model's outputs on it.
+struct TestOutputs<'a> {
+    /// The test windows.
+    test: &'a Dataset,
+    /// Burn float logits, `[W][C]`.
+    burn: &'a [Vec<f32>],
+    /// Int8 core outputs, per window.
+    int8: &'a [Output<MODEL_CLASSES, MODEL_INDICATORS>],
+    /// The int8 logits' scale (real logit = scale · code).
+    scale: f32,
+    /// The model's classes.
+    classes: usize,
+}
+
+/// The model file of the quantized network `q` (named after `out`'s stem, today's
+/// date, `data`'s classes, nodes, normalizations and graph), encoded.
+fn encode_model_file<const H: usize>(
+    q: &DsStgat<FEATURES, H, MODEL_CLASSES, MODEL_INDICATORS>,
+    out: &Path,
+    data: &ProtocolData,
+) -> Result<Vec<u8>> {
     let mut file = Box::<ModelFile>::default();
-    q.store(&mut file, classes, N_INDICATORS)
+    q.store(&mut file, data.classes().len(), N_INDICATORS)
         .map_err(|e| anyhow::anyhow!("{e}"))?;
-    let stem = args
-        .out
+    let stem = out
         .file_stem()
         .and_then(|s| s.to_str())
         .unwrap_or("dsstgat");
@@ -576,75 +713,50 @@ fn export_with<const H: usize>(
     let mut buf = vec![0u8; model_file::MAX_ENCODED_LEN];
     let len = model_file::encode(&file, &mut buf).map_err(|e| anyhow::anyhow!("encode: {e}"))?;
     buf.truncate(len);
-    if let Some(dir) = args.out.parent().filter(|d| !d.as_os_str().is_empty()) {
+    Ok(buf)
+}
+
+/// Write the encoded model file to `out`, creating its folder.
+fn write_model_file(out: &Path, buf: &[u8]) -> Result<()> {
+    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }
-    std::fs::write(&args.out, &buf)
-        .with_context(|| format!("cannot write {}", args.out.display()))?;
-    let sha = sha256_hex(&buf);
-    // Parity, through the file as written.
-    let loaded = load_model_file(&args.out)?;
-    let test = &data.test;
-    let burn = burn_logits(burn_model, test, cfg.eval_batch_size, device)?;
-    let int8 = int8_outputs(&loaded.model, test)?;
-    let scale = loaded.model.logit_scale().get();
-    let mut parity = Parity {
-        windows: test.len(),
-        float_accuracy: 0.0,
-        int8_accuracy: 0.0,
-        agreement: 0.0,
-        max_logit_diff: 0.0,
-        max_relative_logit_diff: 0.0,
-        max_reference_diff: 0.0,
-    };
-    let (mut ok_f, mut ok_q, mut same) = (0usize, 0usize, 0usize);
-    for k in 0..test.len() {
-        let label = test.label[k] as usize;
-        let bl = &burn[k];
-        let fc = argmax(bl);
-        let w = CoreWindow::of(test, k);
-        float
-            .forward(&w.x, &w.adj, &w.mask, &mut of, &mut sf)
-            .map_err(|e| anyhow::anyhow!("float reference on window {k}: {e}"))?;
-        let range = bl.iter().fold(1.0f32, |m, v| m.max(v.abs()));
-        for c in 0..classes {
-            let d = (bl[c] - scale * int8[k].logits[c] as f32).abs();
-            parity.max_logit_diff = parity.max_logit_diff.max(d);
-            parity.max_relative_logit_diff = parity.max_relative_logit_diff.max(d / range);
-            parity.max_reference_diff = parity.max_reference_diff.max((bl[c] - of.logits[c]).abs());
-        }
-        ok_f += usize::from(fc == label);
-        ok_q += usize::from(int8[k].class == label);
-        same += usize::from(fc == int8[k].class);
-    }
-    let n = test.len().max(1) as f64;
-    parity.float_accuracy = ok_f as f64 / n;
-    parity.int8_accuracy = ok_q as f64 / n;
-    parity.agreement = same as f64 / n;
-    // Golden windows: spread over the test side, every class if possible.
+    std::fs::write(out, buf).with_context(|| format!("cannot write {}", out.display()))
+}
+
+/// The golden windows' indices: spread over the test side, every class if possible;
+/// `golden` of them, or one per class if that is more.
+fn golden_picks(test: &Dataset, classes: usize, golden: usize) -> Vec<usize> {
     let mut picks: Vec<usize> = Vec::new();
     for c in 0..classes {
         if let Some(k) = (0..test.len()).find(|&k| test.label[k] as usize == c) {
             picks.push(k);
         }
     }
-    let stride = (test.len() / args.golden.max(1)).max(1);
+    let stride = (test.len() / golden.max(1)).max(1);
     let mut k = stride / 2;
-    while picks.len() < args.golden && k < test.len() {
+    while picks.len() < golden && k < test.len() {
         if !picks.contains(&k) {
             picks.push(k);
         }
         k += stride;
     }
-    picks.truncate(args.golden.max(classes));
-    let golden = Golden {
-        model: args
-            .out
+    picks.truncate(golden.max(classes));
+    picks
+}
+
+/// The golden vectors of the model file `out` (SHA-256 `sha`): `golden` test windows
+/// with their inputs, burn logits and int8 logit codes.
+fn golden_vectors(out: &Path, golden: usize, o: &TestOutputs<'_>, sha: &str) -> Golden {
+    let test = o.test;
+    let picks = golden_picks(test, o.classes, golden);
+    Golden {
+        model: out
             .file_name()
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_default(),
-        model_sha256: sha.clone(),
-        logit_scale: scale,
+        model_sha256: sha.to_string(),
+        logit_scale: o.scale,
         relative_tolerance: GOLDEN_RELATIVE_TOLERANCE,
         shape: [STEPS, N_NODES, FEATURES],
         windows: picks
@@ -657,28 +769,17 @@ fn export_with<const H: usize>(
                     x: test.x[x0..x0 + xw].to_vec(),
                     adj: test.adj[a0..a0 + aw].to_vec(),
                     mask: test.window_mask(k).to_vec(),
-                    float_logits: burn[k].clone(),
-                    int8_logits: int8[k].logits[..classes].to_vec(),
-                    int8_class: int8[k].class,
+                    float_logits: o.burn[k].clone(),
+                    int8_logits: o.int8[k].logits[..o.classes].to_vec(),
+                    int8_class: o.int8[k].class,
                 }
             })
             .collect(),
-    };
-    let golden_path = sibling(&args.out, "golden.json");
-    std::fs::write(&golden_path, serde_json::to_string(&golden)? + "\n")
-        .with_context(|| format!("cannot write {}", golden_path.display()))?;
-    let card_path = sibling(&args.out, "md");
-    std::fs::write(
-        &card_path,
-        model_card(args, cfg, data, &parity, &sha, len, &ranges),
-    )
-    .with_context(|| format!("cannot write {}", card_path.display()))?;
-    eprintln!(
-        "wrote {} ({len} bytes, sha256 {sha}), {}, {}",
-        args.out.display(),
-        golden_path.display(),
-        card_path.display()
-    );
+    }
+}
+
+/// The parity figures on standard error.
+fn print_parity(parity: &Parity) {
     eprintln!(
         "parity on {} test windows: burn float {:.2} %, int8 core {:.2} %, agreement {:.2} %, \
          max |Δlogit| {:.4} ({:.2} % of the window's logit range); core float reference vs burn \
@@ -691,9 +792,6 @@ fn export_with<const H: usize>(
         100.0 * parity.max_relative_logit_diff,
         parity.max_reference_diff
     );
-    let parity_path = sibling(&args.out, "parity.json");
-    std::fs::write(&parity_path, serde_json::to_string_pretty(&parity)? + "\n")?;
-    Ok(())
 }
 
 fn argmax(v: &[f32]) -> usize {
