@@ -10,6 +10,7 @@
 //! | [`simulator`] | 2-DOF mass–damper–stiffness model with cubic stiffness, fixed-step RK4, sensor nodes | eqs. 16–17, 21–22 |
 //! | [`fft`] | radix-2 FFT (no plan: twiddles from a recurrence, in place) | §4.3, §5.3 |
 //! | [`fir`] | windowed-sinc low-pass, the common band limit and anti-alias filter | — |
+//! | [`dsp`] | general-purpose DSP under the features: Hilbert envelope and its spectrum, spectral peaks and harmonic levels, quickselect / median, segment time statistics | — |
 //! | [`features`] | time, spectral and envelope-spectrum node features | eq. 9, Table 3 |
 //! | [`tracking`] | on-edge tracking of radial stiffness and damping Θ by eq. 10 steps on a feature-space loss against the RK4 model | §4.3 eq. 10, eqs. 16–22 |
 //! | [`graph`] | dynamic sparse sensor graph: prior ⊕ Pearson, threshold, normalization | eqs. 1–3 |
@@ -23,6 +24,19 @@
 //! Errors: every fallible function returns [`Result`] with the flat [`Error`] enum.
 //! Math: all transcendental functions go through the private `math` module, which
 //! calls `libm` explicitly, so host tests exercise exactly the code the MCU runs.
+//!
+//! **Depends on** no crate of the workspace; outside it only on `libm`, and on
+//! `heapless`, `postcard` and `serde` without default features (the model file). Every
+//! other crate of the workspace depends on this one. **Invariant:** `no_std`, no
+//! `alloc` (`tests/nostd-probe` fails to link if anything allocates), no `unsafe`, and
+//! no reachable panic on the inference path (`tests/nopanic-probe`).
+//!
+//! Not used, on purpose: `nalgebra` (the tracker's 2 × 2 normal equations and the
+//! twin's Levenberg–Marquardt solve are a few lines each, and rewriting them on another
+//! library's kernels would change their rounding, so the edge's tracking figures and
+//! the closed loop's reports would no longer reproduce bit for bit) and `micromath`
+//! (see `math`: its approximations are too coarse for the FFT twiddles and the RK4
+//! checks). Neither is declared.
 #![cfg_attr(not(feature = "std"), no_std)]
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
@@ -31,6 +45,7 @@
 extern crate std;
 
 pub mod bearing;
+pub mod dsp;
 pub mod dsstgat;
 mod error;
 pub mod excitation;

@@ -15,15 +15,21 @@
 //! | [`explain`] | envelope peak → nearest kinematic line (shaft, BPFO, BPFI, BSF, FTF) |
 //! | [`report`] | the JSON line of a window |
 //! | [`diagnosis`] | the extension point for diagnosers |
-//! | [`model`] | the int8 DS-STGAT from a model file (`--model`) as a diagnoser |
+//! | [`network`] | the int8 DS-STGAT network, read from a model file (`--model`), as a diagnoser |
 //! | [`live`] | live SocketCAN source (`--can IFACE`, reconnecting) and the `--publish-id` bus writer |
 //! | [`mqtt`] | telemetry to an MQTT broker, QoS 1, with an on-disk store-and-forward queue |
 //! | [`ops`] | `--config FILE.toml` for every flag, Prometheus `/metrics` endpoint |
 //! | [`pace`] | replay at full speed or following the log's timestamps |
 //! | [`gateway`] | the run loop |
 //!
-//! Hardware sits behind [`candump::FrameSource`]: the SocketCAN source (`--can IFACE`)
-//! will be a second implementation, and tests script the bus with a third.
+//! Hardware sits behind [`candump::FrameSource`]: the SocketCAN source ([`live`],
+//! `--can IFACE`) is a second implementation, and tests script the bus with a third.
+//!
+//! **Depends on** `pumptwin-core` only among the workspace's crates (no burn, no data
+//! or twin crate: the gateway runs the core's features and int8 network as the
+//! firmware does). **Invariant:** a bad frame, a wrong model file or a missing channel
+//! is counted or reported, never a panic; the window layout is the core's
+//! (`pumptwin_core::layout`), so the gateway sees what training saw.
 
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
@@ -34,8 +40,8 @@ pub mod diagnosis;
 pub mod explain;
 pub mod gateway;
 pub mod live;
-pub mod model;
 pub mod mqtt;
+pub mod network;
 pub mod ops;
 pub mod pace;
 pub mod pipeline;

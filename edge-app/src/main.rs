@@ -12,7 +12,7 @@
 //!   --can IFACE         read live from a SocketCAN interface (classic and FD frames);
 //!                       reopens it with backoff when it goes down
 //!   --publish-id ID     (with --can) send a compact 8-byte diagnosis frame with this
-//!                       id after every window (layout: `model::DiagnosisFrameEncoder`)
+//!                       id after every window (layout: `network::DiagnosisFrameEncoder`)
 //!   --idle-exit S       (with --can) end after S seconds without a frame
 //!   --sensors MAP.toml  sensor map (machine speed, bearing, fs; channel ids and layouts)
 //!   --model MODEL.ptm   int8 model file: adds the model's diagnosis to every window
@@ -61,8 +61,8 @@ use pumptwin_core::fir::{BAND_LIMIT_HZ, MAX_CUTOFF_FRACTION};
 use pumptwin_edge::candump::{CandumpReplay, FrameSource};
 use pumptwin_edge::gateway::{Gateway, Publisher};
 use pumptwin_edge::live::{BusPublisher, SocketCanSource};
-use pumptwin_edge::model::{DiagnosisFrameEncoder, ModelDiagnoser};
 use pumptwin_edge::mqtt::{MqttConfig, MqttSink};
+use pumptwin_edge::network::{DiagnosisFrameEncoder, ModelDiagnoser};
 use pumptwin_edge::ops::{serve_metrics, Metrics};
 use pumptwin_edge::pace::{Pacer, Speed};
 use pumptwin_edge::pipeline::Pipeline;

@@ -434,8 +434,8 @@ pub fn response_mse(
     mean: &[f32; N_THETA],
     std: &[f32; N_THETA],
 ) -> Option<f64> {
-    use pumptwin_twin::model::{OperatingPoint, TwinModel};
     use pumptwin_twin::signature::{error_figures, Signature, SignatureConfig};
+    use pumptwin_twin::twin::{OperatingPoint, TwinModel};
     let mut per_record: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
     for (k, (w, _)) in test.iter().enumerate() {
         per_record.entry(w.record).or_default().push(k);

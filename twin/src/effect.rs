@@ -1,4 +1,4 @@
-//! The effects the loop can add to the twin (the table in [`crate::model`]'s docs):
+//! The effects the loop can add to the twin (the table in [`crate::twin`]'s docs):
 //! what each is, its kind and name in reports, and where its parameters start.
 
 use pumptwin_core::bearing::{DefectFrequencies, DefectLocation};

@@ -5,10 +5,10 @@
 //! evaluation), so the loss is a smooth function of Θ even though the model has random
 //! excitation.
 
-use super::model::TwinModel;
 use super::signature::{
     error_figures, residual_vector, to_db, ErrorFigures, Signature, SignatureConfig, SignatureError,
 };
+use super::twin::TwinModel;
 
 /// What a fit compares against.
 #[derive(Debug, Clone)]

@@ -3,8 +3,8 @@
 //! terms), not from the twin's model, and the loop is handed only the signal, the
 //! sampling rate, the nominal speed and the bearing: it never sees these settings.
 
-use crate::model::EffectKind;
 use crate::sim::{simulate, ExtraTerms, OutputBursts, SensorSpec, SimError, SimulationSpec, G};
+use crate::twin::EffectKind;
 use pumptwin_core::bearing::DefectLocation;
 use pumptwin_core::excitation::ImpactTrain;
 use pumptwin_core::simulator::SensorTransfer;

@@ -6,7 +6,7 @@
 //! | module | step |
 //! |---|---|
 //! | [`signature`] | phase-free comparison domains and error figures |
-//! | [`model`] | the parametric twin |
+//! | [`twin`] | the parametric twin ([`twin::TwinModel`]) |
 //! | [`effect`] | the effects the loop can add to it |
 //! | [`fit`] | eq. 10 as Levenberg–Marquardt with common random numbers |
 //! | [`residual`] | significant residual components and the measurements behind evidence |
@@ -27,10 +27,10 @@ pub mod closed_loop;
 pub mod effect;
 pub mod fit;
 pub mod generate;
-pub mod model;
 pub mod plot;
 pub mod report;
 pub mod residual;
 pub mod signature;
 pub mod sim;
 pub mod trace;
+pub mod twin;

@@ -7,8 +7,8 @@
 //! residual `d(f) = measured − model`: `d > median(d) + max(6 dB, 5·1.4826·MAD(d))` (5σ over some 2000 bins).
 //! Narrow runs (≤ 4 bins, a Hann main lobe) are lines; wider runs are bands.
 
-use super::model::{Effect, TwinModel};
 use super::signature::{block_within, to_db, welch, Signature, SignatureConfig};
+use super::twin::{Effect, TwinModel};
 use pumptwin_core::features::{envelope, peak_frequency, EnvelopeBand};
 use pumptwin_core::fft::{fft_in_place, Complex32, Direction};
 

@@ -64,11 +64,10 @@
 use crate::error::{Error, Result};
 use crate::graph::{Adjacency, NodeMask};
 
-use super::dot_i8;
+use super::arith::{dot_i8, round_half_away};
 use super::linear::{quantize_bias, LinearF32, QLinear};
 use super::lut::{ExpLut, LeakyRelu};
 use super::qparams::{quantize_value, MaxAbs, QMultiplier, QScale};
-use super::round_half_away;
 use super::softmax::{softmax_row_f32, softmax_row_q15, MAX_SOFTMAX_LEN};
 
 /// A normalized adjacency `Â` quantized to int8 at scale 1/127 (entries `0..=127`).
@@ -703,8 +702,8 @@ mod tests {
                 let mut xq = [[0i8; F]; N];
                 let mut xhat = [[0f32; F]; N];
                 for i in 0..N {
-                    crate::quant::quantize_symmetric(&c.x[i], s_x, &mut xq[i]).unwrap();
-                    crate::quant::dequantize(&xq[i], s_x, &mut xhat[i]).unwrap();
+                    crate::quant::qparams::quantize_symmetric(&c.x[i], s_x, &mut xq[i]).unwrap();
+                    crate::quant::qparams::dequantize(&xq[i], s_x, &mut xhat[i]).unwrap();
                 }
                 (xq, xhat, QAdjacency::from_adjacency(&c.adj).unwrap())
             })
@@ -829,7 +828,7 @@ mod tests {
         let q = GatLayer::from_f32(&float, scales).unwrap();
         let mut xq = [[0i8; F]; N];
         for i in 0..N {
-            crate::quant::quantize_symmetric(&x[i], scales.input, &mut xq[i]).unwrap();
+            crate::quant::qparams::quantize_symmetric(&x[i], scales.input, &mut xq[i]).unwrap();
         }
         let aq = QAdjacency::from_adjacency(&adj).unwrap();
         let mut out = [[0i8; H]; N];

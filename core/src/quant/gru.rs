@@ -44,10 +44,10 @@
 
 use crate::error::{Error, Result};
 
+use super::arith::{sigmoid_f64, tanh_f64};
 use super::linear::{LinearF32, QLinear};
 use super::lut::{Lut8, SIGMOID_GATE_INPUT_SCALE, TANH_GATE_INPUT_SCALE};
 use super::qparams::{QMultiplier, QScale};
-use super::{sigmoid_f64, tanh_f64};
 
 /// Stated bound of the int8 GRU's hidden-state drift from the float reference,
 /// `|ĥ − h|` in real units, over the tested runs (see the module docs).
@@ -385,8 +385,8 @@ mod tests {
             for x in &xs {
                 let mut xq = [0i8; IN];
                 let mut xhat = [0f32; IN];
-                crate::quant::quantize_symmetric(x, s_x, &mut xq).unwrap();
-                crate::quant::dequantize(&xq, s_x, &mut xhat).unwrap();
+                crate::quant::qparams::quantize_symmetric(x, s_x, &mut xq).unwrap();
+                crate::quant::qparams::dequantize(&xq, s_x, &mut xhat).unwrap();
                 q.step(&xq, &mut hq, &mut scratch);
                 float.step(&xhat, &mut hf);
                 for o in 0..H {
@@ -419,8 +419,8 @@ mod tests {
                 let x: [f32; IN] = random_vector(&mut rng, 2.0);
                 let mut xq = [0i8; IN];
                 let mut xhat = [0f32; IN];
-                crate::quant::quantize_symmetric(&x, s_x, &mut xq).unwrap();
-                crate::quant::dequantize(&xq, s_x, &mut xhat).unwrap();
+                crate::quant::qparams::quantize_symmetric(&x, s_x, &mut xq).unwrap();
+                crate::quant::qparams::dequantize(&xq, s_x, &mut xhat).unwrap();
                 q.step(&xq, &mut hq, &mut scratch);
                 float.step(&xhat, &mut hf);
                 let err = (0..H)

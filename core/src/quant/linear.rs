@@ -30,9 +30,8 @@
 
 use crate::error::{Error, Result};
 
-use super::dot_i8;
+use super::arith::{dot_i8, round_half_away};
 use super::qparams::{per_channel_scales, quantize_value, QMultiplier, QScale};
-use super::round_half_away;
 
 /// Largest bias magnitude (keeps `bias + dot` inside i32, see [`super::MAX_DOT_LEN`]).
 pub const MAX_BIAS: i32 = (1 << 30) - 1;
@@ -303,8 +302,8 @@ mod tests {
             let mut xq = [[0i8; IN]; 8];
             let mut xhat = [[0f32; IN]; 8];
             for (n, x) in xs.iter().enumerate() {
-                crate::quant::quantize_symmetric(x, s_x, &mut xq[n]).unwrap();
-                crate::quant::dequantize(&xq[n], s_x, &mut xhat[n]).unwrap();
+                crate::quant::qparams::quantize_symmetric(x, s_x, &mut xq[n]).unwrap();
+                crate::quant::qparams::dequantize(&xq[n], s_x, &mut xhat[n]).unwrap();
             }
             let mut out_range = MaxAbs::new();
             let mut yf = [[0f32; OUT]; 8];

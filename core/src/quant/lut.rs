@@ -42,8 +42,8 @@
 use crate::error::{Error, Result};
 use crate::math;
 
+use super::arith::{round_half_away, sigmoid_f64, tanh_f64};
 use super::qparams::{saturate_i8, QMultiplier, QScale, Q_MAX};
-use super::{round_half_away, sigmoid_f64, tanh_f64};
 
 /// Input range of the GRU's sigmoid gate table: pre-activations clamp to `±6`.
 pub const SIGMOID_GATE_RANGE: f32 = 6.0;
@@ -475,8 +475,8 @@ mod tests {
             let lsb = 1.0 / 127.0;
             for _ in 0..256 {
                 let x = uniform(rng, -10.0, 10.0);
-                let qs = crate::quant::quantize_value(x, sig.input_scale()).unwrap();
-                let qt = crate::quant::quantize_value(x, tanh.input_scale()).unwrap();
+                let qs = crate::quant::qparams::quantize_value(x, sig.input_scale()).unwrap();
+                let qt = crate::quant::qparams::quantize_value(x, tanh.input_scale()).unwrap();
                 let x = f64::from(x);
                 out.push(Sample::new(
                     f64::from(sig.lookup(qs)) * lsb,

@@ -20,7 +20,7 @@
 
 use crate::error::{expect_len, Error, Result};
 
-use super::round_half_away;
+use super::arith::round_half_away;
 
 /// Largest int8 code magnitude: codes live in `[−Q_MAX, Q_MAX] = [−127, 127]`.
 pub const Q_MAX: i32 = 127;

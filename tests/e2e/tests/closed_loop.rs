@@ -12,8 +12,8 @@
 use pumptwin_core::bearing::BearingGeometry;
 use pumptwin_twin::closed_loop::{note_clipping, run, LoopConfig, LoopInput, LoopReport, LoopStep};
 use pumptwin_twin::generate::{generate, Injected, Strength, FS_HZ, RPM};
-use pumptwin_twin::model::Effect;
 use pumptwin_twin::sim::{simulate, SimulationSpec};
+use pumptwin_twin::twin::Effect;
 
 /// The loop on `signal`, told what the generator's records are (12 kHz, 1797 rpm, the
 /// 6205 drive-end bearing).

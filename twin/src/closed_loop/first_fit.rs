@@ -5,8 +5,8 @@
 use super::setup::Setup;
 use super::types::LoopError;
 use crate::fit::{evaluate, fit, FitConfig, FitError, FitResult, Target};
-use crate::model::{OperatingPoint, TwinModel};
 use crate::residual::refine_comb_rate;
+use crate::twin::{OperatingPoint, TwinModel};
 use pumptwin_core::bearing::DefectLocation;
 use pumptwin_core::features::harmonic_level_db;
 

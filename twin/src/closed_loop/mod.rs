@@ -29,7 +29,7 @@ pub use types::{
     LoopStep, RejectedCandidate,
 };
 
-use crate::model::fault_name;
+use crate::twin::fault_name;
 use first_fit::first_fit;
 use record::psd_scatter_db as scatter;
 use round::{round, unexplained, Next, State};

@@ -6,11 +6,11 @@ use super::setup::Setup;
 use super::trial::{rival_only, tried_key, Trial, Trials};
 use super::types::{LoopError, LoopStep};
 use crate::fit::FitResult;
-use crate::model::TwinModel;
 use crate::residual::Domain;
 use crate::residual::{analyse, Check, Component, ResidualAnalysis};
 use crate::signature::{to_db, ErrorFigures, SignatureConfig};
 use crate::trace::{trace, TraceContext};
+use crate::twin::TwinModel;
 
 /// Most PSD misfit beyond the estimates' own scatter ([`psd_scatter_db`]), in quadrature,
 /// a residual with no component above the floor may keep and be called noise-like,

@@ -5,8 +5,8 @@
 use super::record::{ac_couple, held_runs, psd_low_edge, MAX_RMS_G};
 use super::types::{LoopConfig, LoopError, LoopInput};
 use crate::fit::{FitConfig, Target};
-use crate::model::{OperatingPoint, TwinModel};
 use crate::signature::{Signature, SignatureConfig, SignatureError};
+use crate::twin::{OperatingPoint, TwinModel};
 
 /// Relative gain that keeps the first fit iterating: its Θ are the trainer's F_map
 /// targets (`crate::physics::fit_theta`), fitted to convergence.

@@ -7,10 +7,10 @@
 use super::setup::Setup;
 use super::types::{LoopError, RejectedCandidate};
 use crate::fit::{evaluate, fit, FitConfig, FitError, FitResult, Target};
-use crate::model::EffectKind;
-use crate::model::{Effect, TwinModel};
 use crate::residual::{evidence_gap, Candidate, Check};
 use crate::signature::{error_figures, to_db, Signature, SignatureConfig};
+use crate::twin::EffectKind;
+use crate::twin::{Effect, TwinModel};
 
 /// The measured power in excess of the model (output units²) within `f ± half` Hz, at
 /// least ±2 bins: a line's leakage, or a band.

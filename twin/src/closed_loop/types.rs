@@ -2,9 +2,9 @@
 //! kept, the candidates it rejected, the report and the spectra behind its plots.
 
 use crate::fit::FitError;
-use crate::model::Effect;
 use crate::residual::{Component, Evidence, ResidualAnalysis};
 use crate::signature::{to_db, ErrorFigures, Signature, SignatureConfig};
+use crate::twin::Effect;
 use pumptwin_core::bearing::BearingGeometry;
 
 /// What the loop is given.

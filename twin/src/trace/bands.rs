@@ -5,13 +5,13 @@ use super::context::{
     evidence, TraceContext, BAND_DILUTION_DB, BURST_DILUTION_DB, MAX_EXTRA_MODES,
     MAX_UNEXPLAINED_BANDS, MIN_LOG_KURTOSIS_EXCESS,
 };
-use crate::model::Effect;
-use crate::model::EffectKind;
 use crate::residual::Kind;
 use crate::residual::{
     band_carries_defect, band_kurtosis, Candidate, Check, Component, ResidualAnalysis,
     NARROW_BAND_MAX_HZ,
 };
+use crate::twin::Effect;
+use crate::twin::EffectKind;
 
 /// Offer the two largest unmodelled bands' readings: a mode the impacts excite, a
 /// band of noise at the sensor, or bursts at random times.

@@ -1,10 +1,10 @@
 //! A washed-out defect comb: slip (random impact timing) or a speed that drifts.
 
 use super::context::{has, TraceContext};
-use crate::model::Effect;
-use crate::model::EffectKind;
 use crate::residual::{comb_contrast, envelope_line, Candidate, Check, Evidence};
 use crate::signature::block_within;
+use crate::twin::Effect;
+use crate::twin::EffectKind;
 
 /// Offer slip or a speed drift where the measured comb loses contrast at high
 /// orders against the model's.

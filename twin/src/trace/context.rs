@@ -1,10 +1,10 @@
 //! What every tracer reads: the measurement and the current twin, and the limits
 //! on how many effects of each kind the loop adds.
 
-use crate::model::EffectKind;
-use crate::model::{Effect, TwinModel};
 use crate::residual::{Component, Evidence};
 use crate::signature::SignatureConfig;
+use crate::twin::EffectKind;
+use crate::twin::{Effect, TwinModel};
 
 /// What the tracer is told about the measurement.
 #[derive(Debug, Clone)]

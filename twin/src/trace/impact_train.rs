@@ -3,12 +3,12 @@
 //! declared).
 
 use super::context::{load_zone_line, TraceContext, NAMED_RATE_TOLERANCE};
-use crate::model::{fault_name, Effect, TwinModel};
 use crate::residual::{
     on_model_comb, refine_comb_rate, Candidate, Check, Component, Evidence, ResidualAnalysis,
 };
 use crate::residual::{Domain, Kind};
 use crate::signature::SignatureConfig;
+use crate::twin::{fault_name, Effect, TwinModel};
 use pumptwin_core::bearing::DefectLocation;
 
 /// A second impact train read off the residual's envelope lines.

@@ -3,13 +3,13 @@
 
 use super::context::{evidence, has, modulated_at, TraceContext, MAX_UNEXPLAINED_TONES};
 use super::impact_train::SecondTrain;
-use crate::model::EffectKind;
-use crate::model::{Effect, TwinModel};
 use crate::residual::Kind;
 use crate::residual::{
     on_model_comb, Candidate, Check, Component, ResidualAnalysis, MAINS_HZ, MAX_TONES,
     TOOTH_TOL_BINS, TOOTH_TOL_REL,
 };
+use crate::twin::EffectKind;
+use crate::twin::{Effect, TwinModel};
 
 /// Offer the PSD lines' readings (in this order: mains, shaft harmonics, shaft-order
 /// tones, half orders, one unexplained tone); `train`'s lines are its own evidence.

@@ -26,8 +26,8 @@ pub use context::TraceContext;
 pub use impact_train::{second_train, SecondTrain};
 pub use modulation::{measured_modulation, MeasuredModulation};
 
-use crate::model::EffectKind;
 use crate::residual::{Candidate, ResidualAnalysis};
+use crate::twin::EffectKind;
 use context::has;
 
 /// Trace the residual to candidate effects the model lacks (strongest first; equal

@@ -5,12 +5,12 @@ use super::context::{
     evidence, load_zone_line, modulated_at, modulation_rates, TraceContext, MAX_MODULATIONS,
     NAMED_RATE_TOLERANCE,
 };
-use crate::model::Effect;
 use crate::residual::Kind;
 use crate::residual::{
     band_envelope_spectrum, Candidate, Check, Component, Evidence, ResidualAnalysis,
 };
 use crate::signature::{block_within, to_db};
+use crate::twin::Effect;
 use pumptwin_core::bearing::DefectLocation;
 use pumptwin_core::features::peak_frequency;
 

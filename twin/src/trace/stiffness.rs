@@ -1,9 +1,9 @@
 //! Nonlinear stiffness: ring-downs whose frequency falls as they decay.
 
 use super::context::{has, TraceContext};
-use crate::model::Effect;
-use crate::model::EffectKind;
 use crate::residual::{ringdown_frequencies, Candidate, Check, Evidence};
+use crate::twin::Effect;
+use crate::twin::EffectKind;
 
 /// Offer nonlinear stiffness where ring-downs start faster than they end, more
 /// than the model's do.
