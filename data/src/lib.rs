@@ -8,12 +8,15 @@
 //!
 //! | module | what |
 //! |---|---|
-//! | [`mat`] | MATLAB level-5 `.mat` reader (CWRU files) |
+//! | [`mat`] | MATLAB level-5 `.mat` reader (numeric arrays, structs flattened to `s.field`, char arrays as text) |
 //! | [`csv`] | CSV recordings (header of channel names, one column per channel) |
 //! | [`recording`] | [`Recording`]/[`Channel`] and the checks every consumer relies on |
 //! | [`record`] | the CWRU and CSV loaders, [`load_recording`] |
 //! | [`entry`] | a manifest entry → its recording (checksum, file number, rate) |
 //! | [`manifest`] | `MANIFEST.tsv`: labels, loads, speeds, sampling rates; class names |
+//! | [`datasets`] | the MFPT / HIT-SM manifest layout, their fault classes, checksum-checked reads |
+//! | [`mfpt`] | MFPT records (`bearing` struct) → one-channel [`Recording`] + load, fault orders |
+//! | [`hit_sm`] | HIT-SM self-built-rig records (one variable per file) → one-channel [`Recording`] + fault size |
 //! | [`preprocess`](mod@preprocess) | to the model rate (anti-alias + decimation) with one common band limit |
 //! | [`windows`] | windows and the leakage-free `time-block`, `cross-load`, `fault-size` splits |
 //! | [`summary`] | what `pumptwin data summary` prints |
@@ -26,11 +29,14 @@
 #![forbid(unsafe_code)]
 
 pub mod csv;
+pub mod datasets;
 pub mod derived;
 pub mod entry;
 pub mod featurize;
+pub mod hit_sm;
 pub mod manifest;
 pub mod mat;
+pub mod mfpt;
 pub mod preprocess;
 pub mod record;
 pub mod recording;
@@ -39,10 +45,13 @@ pub mod summary;
 mod test_support;
 pub mod windows;
 
+pub use datasets::{read_dataset_manifest, DatasetEntry, DatasetError, DatasetFault};
+pub use hit_sm::{load_hit_sm, HitSmRecord};
 pub use manifest::{
     read_manifest, ClassScheme, FaultType, ManifestEntry, CLASSES_10, FAULT_TYPE_CLASSES,
 };
-pub use mat::{read_mat, read_mat_file, MatError, MatFile, MatVariable};
+pub use mat::{read_mat, read_mat_file, MatError, MatFile, MatText, MatVariable};
+pub use mfpt::{load_mfpt, MfptRecord};
 pub use preprocess::{preprocess, PreprocessConfig, PreprocessError};
 pub use record::{load_recording, DataError};
 pub use recording::{Channel, Recording};

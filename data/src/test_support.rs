@@ -27,3 +27,15 @@ pub(crate) fn scratch_dir(tag: &str) -> PathBuf {
     std::fs::create_dir_all(&dir).expect("create scratch dir");
     dir
 }
+
+/// `../shared/data/<name>` when it holds a `MANIFEST.tsv` (MFPT, HIT-SM); `None`, with a
+/// printed notice, otherwise.
+pub(crate) fn dataset_dir(name: &str) -> Option<PathBuf> {
+    let dir = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data")).join(name);
+    if dir.join(MANIFEST_FILE).is_file() {
+        Some(dir)
+    } else {
+        eprintln!("skipping: {name} data not found at {}", dir.display());
+        None
+    }
+}

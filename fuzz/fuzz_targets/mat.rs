@@ -1,5 +1,6 @@
 //! The data crate's MAT level-5 reader (`pumptwin_data::mat`): every variable of a
-//! file that reads is asked for its vector form.
+//! file that reads (struct fields flattened) is asked for its vector form, and every
+//! char array is looked up as text.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
@@ -12,6 +13,9 @@ fuzz_target!(|data: &[u8]| {
             let product = v.dims.iter().try_fold(1usize, |a, &d| a.checked_mul(d));
             assert_eq!(product, Some(v.data.len()), "{}: dims {:?}", v.name, v.dims);
             let _ = file.variable(&v.name);
+        }
+        for t in &file.texts {
+            assert!(file.text(&t.name).is_some(), "{}", t.name);
         }
     }
 });
