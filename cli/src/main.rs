@@ -14,6 +14,7 @@ use pumptwin::export::{run_export, ExportArgs};
 use pumptwin::predict::{run_predict, PredictArgs};
 use pumptwin::train::{run_train, TrainArgs};
 use pumptwin_data::preprocess::{PreprocessConfig, MODEL_FS_HZ};
+use pumptwin_data::rig_summary::{is_rig_manifest, summarize_rig};
 use pumptwin_data::summary::summarize;
 use pumptwin_data::windows::{Protocol, WindowConfig, DEFAULT_HOP, DEFAULT_WINDOW_LEN};
 use std::io::Write;
@@ -60,13 +61,15 @@ enum Command {
 /// `pumptwin data …`
 #[derive(Debug, Subcommand)]
 enum DataCmd {
-    /// Records, windows and split sizes of a data directory with a MANIFEST.tsv.
+    /// Records, windows and split sizes of a data directory with a MANIFEST.tsv (CWRU);
+    /// for the MFPT and HIT-SM layouts, every record as read (fault, speed, rate,
+    /// samples, load or fault size, RMS, kurtosis) or refused.
     Summary(SummaryArgs),
 }
 
 #[derive(Debug, Args)]
 struct SummaryArgs {
-    /// Data directory holding MANIFEST.tsv (e.g. the CWRU set).
+    /// Data directory holding MANIFEST.tsv (CWRU, MFPT or HIT-SM).
     #[arg(long)]
     data: PathBuf,
     /// Show only this protocol's split (default: all).
@@ -84,6 +87,12 @@ struct SummaryArgs {
 }
 
 fn data_summary(args: &SummaryArgs) -> anyhow::Result<()> {
+    if is_rig_manifest(&args.data) {
+        let summary = summarize_rig(&args.data)
+            .with_context(|| format!("cannot summarize {}", args.data.display()))?;
+        write!(std::io::stdout().lock(), "{summary}")?;
+        return Ok(());
+    }
     let protocols: Vec<Protocol> = match args.protocol {
         Some(p) => vec![p],
         None => Protocol::ALL.to_vec(),

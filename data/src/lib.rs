@@ -19,7 +19,8 @@
 //! | [`hit_sm`] | HIT-SM self-built-rig records (one variable per file) → one-channel [`Recording`] + fault size |
 //! | [`preprocess`](mod@preprocess) | to the model rate (anti-alias + decimation) with one common band limit |
 //! | [`windows`] | windows and the leakage-free `time-block`, `cross-load`, `fault-size` splits |
-//! | [`summary`] | what `pumptwin data summary` prints |
+//! | [`summary`] | what `pumptwin data summary` prints for CWRU (records, windows, splits) |
+//! | [`rig_summary`] | what it prints for MFPT and HIT-SM (every record read or refused) |
 //! | [`featurize`] | records → windows → the core's node features and dynamic graphs |
 //! | [`derived`] | the paper's derived temperature and pressure nodes (§6.2) |
 //!
@@ -40,6 +41,7 @@ pub mod mfpt;
 pub mod preprocess;
 pub mod record;
 pub mod recording;
+pub mod rig_summary;
 pub mod summary;
 #[cfg(test)]
 mod test_support;
