@@ -10,7 +10,7 @@ use pumptwin_data::featurize::{
     feature_config, fit_norm, window_features, window_graphs, MaskCounts, WINDOW,
 };
 use pumptwin_data::preprocess::{preprocess, PreprocessConfig, MODEL_FS_HZ};
-use pumptwin_data::record::{load_recording, Recording};
+use pumptwin_data::record::{load_mat_channels, load_recording, Recording};
 use pumptwin_twin::plot::{line_plot, PlotSpec, Series};
 use pumptwin_twin::signature::welch;
 use pumptwin_twin::sim::{location_name, simulate, SimulationSpec};
@@ -284,7 +284,8 @@ pub fn plot_record(rec: &Recording, dir: &Path, markers: &[(f32, String)]) -> Re
 /// A recording and what a user knows about it, shared by the commands that read one.
 #[derive(Debug, Clone, clap::Args)]
 pub struct RecordArgs {
-    /// Recording (.mat in CWRU layout, or .csv with a header row).
+    /// Recording (.mat in CWRU layout — or any layout with --var —, or .csv with a
+    /// header row).
     #[arg(long)]
     pub input: PathBuf,
     /// Sampling rate, Hz (else the file's: a CSV's `# fs_hz=` line before its header, a .mat's MANIFEST.tsv entry).
@@ -296,6 +297,11 @@ pub struct RecordArgs {
     /// Bearing: cwru-6205-de, cwru-6203-fe, or n,d,D,angle_deg.
     #[arg(long, default_value = "cwru-6205-de")]
     pub bearing: String,
+    /// A .mat variable to read as a channel, for a file not in CWRU's layout: NAME
+    /// (channel DE) or CHANNEL=NAME, repeatable (--var DE=acc1 --var FE=acc2); a
+    /// struct's field is STRUCT.FIELD (--var bearing.gs for an MFPT file).
+    #[arg(long, value_name = "[CHANNEL=]NAME")]
+    pub var: Vec<String>,
 }
 
 /// A loaded record: as read, and preprocessed (model rate, common band limit).
@@ -317,6 +323,34 @@ impl RecordArgs {
         self.load_at(|_| MODEL_FS_HZ)
     }
 
+    /// The `(channel, variable)` pairs of --var (none: the file's own layout); they
+    /// apply to .mat files only.
+    fn named_channels(&self) -> Result<Vec<(String, String)>> {
+        let mut pairs: Vec<(String, String)> = Vec::new();
+        for v in &self.var {
+            let (channel, variable) = v.split_once('=').unwrap_or(("DE", v));
+            ensure!(
+                !channel.is_empty() && !variable.is_empty(),
+                "--var {v:?}: expected NAME or CHANNEL=NAME"
+            );
+            ensure!(
+                pairs.iter().all(|(n, _)| n != channel),
+                "--var {v:?}: channel {channel} is named twice"
+            );
+            pairs.push((channel.to_string(), variable.to_string()));
+        }
+        let is_mat = self
+            .input
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("mat"));
+        ensure!(
+            pairs.is_empty() || is_mat,
+            "--var names variables of a .mat file; {} is not one",
+            self.input.display()
+        );
+        Ok(pairs)
+    }
+
     /// Load, check and preprocess the record to `rate(fs)` Hz, `fs` its own rate.
     fn load_at(&self, rate: impl Fn(f32) -> f32) -> Result<LoadedRecord> {
         // The flags first: a bad value is the user's, not the file's.
@@ -333,8 +367,13 @@ impl RecordArgs {
             );
         }
         let bearing = parse_bearing(&self.bearing)?;
-        let raw = load_recording(&self.input, self.fs, self.rpm)
-            .with_context(|| format!("load {}", self.input.display()))?;
+        let named = self.named_channels()?;
+        let raw = if named.is_empty() {
+            load_recording(&self.input, self.fs, self.rpm)
+        } else {
+            load_mat_channels(&self.input, &named, self.fs, self.rpm)
+        }
+        .with_context(|| format!("load {}", self.input.display()))?;
         let rpm = self
             .rpm
             .or(raw.rpm)
@@ -550,6 +589,33 @@ pub fn run_features(args: &FeaturesArgs) -> Result<()> {
 mod tests {
     use super::*;
 
+    /// --var reads NAME as channel DE and CHANNEL=NAME as named; a channel named
+    /// twice, an empty side, or a file that is not a .mat is refused.
+    #[test]
+    fn var_flags_name_mat_channels() {
+        let args = |input: &str, var: &[&str]| RecordArgs {
+            input: PathBuf::from(input),
+            fs: None,
+            rpm: None,
+            bearing: "cwru-6205-de".into(),
+            var: var.iter().map(|v| v.to_string()).collect(),
+        };
+        let pairs = args("a.mat", &["bearing.gs", "FE=acc2"])
+            .named_channels()
+            .unwrap();
+        assert_eq!(
+            pairs,
+            [
+                ("DE".into(), "bearing.gs".into()),
+                ("FE".into(), "acc2".into())
+            ]
+        );
+        assert!(args("a.mat", &[]).named_channels().unwrap().is_empty());
+        assert!(args("a.mat", &["x", "DE=y"]).named_channels().is_err());
+        assert!(args("a.mat", &["FE="]).named_channels().is_err());
+        assert!(args("a.csv", &["x"]).named_channels().is_err());
+    }
+
     #[test]
     fn bearing_argument() {
         assert_eq!(
@@ -588,6 +654,7 @@ mod tests {
             fs: None,
             rpm: None,
             bearing: "cwru-6205-de".into(),
+            var: Vec::new(),
         };
         let err = format!("{:#}", args.load().unwrap_err());
         assert!(err.contains("upsampling"), "{err}");

@@ -130,3 +130,16 @@ fn main() -> anyhow::Result<()> {
         other => other,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    /// clap's own consistency checks over every subcommand: no flag named twice (a
+    /// flattened argument group beside a command's own flag), defaults that parse.
+    #[test]
+    fn the_command_line_is_consistent() {
+        Cli::command().debug_assert();
+    }
+}

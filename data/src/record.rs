@@ -82,6 +82,22 @@ pub enum DataError {
         /// Its dimensions.
         dims: Vec<usize>,
     },
+    /// A variable named as a channel (`--channel DE=VAR`) is not in the file.
+    #[error(
+        "{}: no variable `{variable}` (for channel {channel}); numeric variables present: \
+         [{present}]",
+        path.display()
+    )]
+    MissingVariable {
+        /// The file.
+        path: PathBuf,
+        /// The channel it was to fill.
+        channel: String,
+        /// The variable asked for.
+        variable: String,
+        /// The numeric variables the file holds (struct fields as `struct.field`).
+        present: String,
+    },
     /// The recording breaks what every consumer relies on.
     #[error(transparent)]
     Invalid(#[from] RecordingError),
@@ -264,6 +280,67 @@ pub(crate) fn cwru_mat_from_bytes(
     recording_from_cwru_mat(&mat, &stem_name(path), number, fs_hz, rpm)
 }
 
+/// Load a `.mat` file whatever its layout: each `(channel, variable)` pair names the
+/// numeric vector (a top-level variable, or a struct's field as `struct.field`) that
+/// becomes that channel, e.g. `("DE", "bearing.gs")` for an MFPT file or
+/// `("DE", "V0")` for a DAQ export. The rate is `fs_hz` (else the data set's
+/// `MANIFEST.tsv`, as for CWRU files), the speed `rpm` (else unknown). A variable the
+/// file lacks is an error that lists the ones it has.
+pub fn load_mat_channels(
+    path: &Path,
+    channels: &[(String, String)],
+    fs_hz: Option<f32>,
+    rpm: Option<f32>,
+) -> Result<Recording, DataError> {
+    let fs_hz = match fs_hz {
+        Some(fs) => fs,
+        None => manifest_fs_hz(path)?.ok_or_else(|| DataError::MissingSamplingRate {
+            path: path.to_path_buf(),
+        })?,
+    };
+    check_positive("fs_hz", fs_hz)?;
+    if let Some(r) = rpm {
+        check_positive("rpm", r)?;
+    }
+    let bytes = std::fs::read(path).map_err(|source| DataError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let mat = read_mat(&bytes).map_err(|source| DataError::Mat {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let name = stem_name(path);
+    let mut out = Vec::with_capacity(channels.len());
+    for (channel, variable) in channels {
+        let v = mat
+            .variable(variable)
+            .ok_or_else(|| DataError::MissingVariable {
+                path: path.to_path_buf(),
+                channel: channel.clone(),
+                variable: variable.clone(),
+                present: mat
+                    .variables
+                    .iter()
+                    .map(|v| v.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            })?;
+        out.push(Channel {
+            name: channel.clone(),
+            samples: channel_samples(&name, channel, v)?,
+        });
+    }
+    let recording = Recording {
+        name,
+        fs_hz,
+        rpm,
+        channels: out,
+    };
+    recording.validate()?;
+    Ok(recording)
+}
+
 /// Load a CSV recording; sampling rate and speed from the caller or the file's
 /// declaration ([`parse_csv`]).
 pub fn load_csv(path: &Path, fs_hz: Option<f32>, rpm: Option<f32>) -> Result<Recording, DataError> {
@@ -346,6 +423,51 @@ pub(crate) mod tests {
     use super::*;
     use crate::mat::writer::double_vectors;
     use crate::test_support::{cwru_dir, scratch_dir};
+
+    /// Named variables of any layout become the channels; a missing one is an error
+    /// that lists what the file holds, a rate is required.
+    #[test]
+    fn named_variables_become_channels() {
+        let dir = scratch_dir("named-vars");
+        let path = dir.join("daq.mat");
+        let x: Vec<f64> = (0..64).map(|i| f64::from(i) * 0.01).collect();
+        let y: Vec<f64> = x.iter().map(|v| -v).collect();
+        std::fs::write(&path, double_vectors(&[("V0", &x), ("acc_fe", &y)])).expect("write");
+        let pairs = |p: &[(&str, &str)]| -> Vec<(String, String)> {
+            p.iter()
+                .map(|(c, v)| (c.to_string(), v.to_string()))
+                .collect()
+        };
+        let rec = load_mat_channels(
+            &path,
+            &pairs(&[("DE", "V0"), ("FE", "acc_fe")]),
+            Some(20_000.0),
+            Some(900.0),
+        )
+        .expect("named channels");
+        assert_eq!(rec.channels.len(), 2);
+        assert_eq!(rec.channel("FE").expect("FE").samples[3], -0.03);
+        assert_eq!((rec.fs_hz, rec.rpm, rec.len()), (20_000.0, Some(900.0), 64));
+        let err = load_mat_channels(&path, &pairs(&[("DE", "nope")]), Some(20_000.0), None)
+            .expect_err("missing variable");
+        assert!(
+            matches!(&err, DataError::MissingVariable { variable, .. } if variable == "nope"),
+            "{err}"
+        );
+        assert!(err.to_string().contains("V0, acc_fe"), "{err}");
+        assert!(matches!(
+            load_mat_channels(&path, &pairs(&[("DE", "V0")]), None, None),
+            Err(DataError::MissingSamplingRate { .. })
+        ));
+        assert!(matches!(
+            load_mat_channels(&path, &pairs(&[("DE", "V0")]), Some(-1.0), None),
+            Err(DataError::Invalid(RecordingError::InvalidParameter {
+                what: "fs_hz",
+                ..
+            }))
+        ));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 
     fn mat(vars: &[(&str, &[f64])]) -> MatFile {
         read_mat(&double_vectors(vars)).expect("test file")

@@ -26,6 +26,7 @@ fn predict_at(input: &Path, fs: f32, model: &str, out: &Path) -> serde_json::Val
             fs: Some(fs),
             rpm: Some(1797.0),
             bearing: "cwru-6205-de".into(),
+            var: Vec::new(),
         },
         model: root().join(model),
         out: Some(out.to_owned()),

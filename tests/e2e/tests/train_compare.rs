@@ -135,6 +135,7 @@ fn train_eval_predict_compare_on_cwru() {
                 fs: Some(12_000.0),
                 rpm: Some(1797.0),
                 bearing: "cwru-6205-de".into(),
+                var: Vec::new(),
             },
             model: runs.join("time-block").join(model).join("model.bpk"),
             out: Some(p_out.clone()),
