@@ -616,6 +616,60 @@ mod tests {
         assert!(args("a.csv", &["x"]).named_channels().is_err());
     }
 
+    /// A user's record at 20–100 kHz and 300–3600 rpm (the issue's range) is read and
+    /// brought to the model rate, whatever the ratio of the rates (25.6 and 51.2 kHz
+    /// are not multiples of 12 kHz); a speed whose defect lines the window cannot
+    /// resolve is refused with the reason.
+    #[test]
+    fn records_of_other_rates_and_speeds_reach_the_model_rate() {
+        let dir = std::env::temp_dir().join(format!("pumptwin-rates-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        for fs in [20_000.0f32, 25_600.0, 51_200.0, 100_000.0] {
+            let path = dir.join(format!("r{fs}.csv"));
+            let n = fs as usize; // 1 s
+            let rec = Recording {
+                name: "r".into(),
+                fs_hz: fs,
+                rpm: None,
+                channels: vec![pumptwin_data::record::Channel {
+                    name: "DE".into(),
+                    samples: (0..n)
+                        .map(|i| (std::f32::consts::TAU * 3000.0 * i as f32 / fs).sin())
+                        .collect(),
+                }],
+            };
+            write_csv(&rec, &path).unwrap();
+            for rpm in [300.0f32, 3600.0] {
+                let args = RecordArgs {
+                    input: path.clone(),
+                    fs: Some(fs),
+                    rpm: Some(rpm),
+                    bearing: "cwru-6205-de".into(),
+                    var: Vec::new(),
+                };
+                let loaded = args
+                    .load()
+                    .unwrap_or_else(|e| panic!("{fs} Hz, {rpm} rpm: {e:#}"));
+                assert_eq!(loaded.rec.fs_hz, MODEL_FS_HZ, "{fs} Hz");
+                let len = loaded.rec.len() as f32;
+                assert!(
+                    (len - MODEL_FS_HZ).abs() <= 0.01 * MODEL_FS_HZ,
+                    "{fs} Hz: {len}"
+                );
+            }
+            let slow = RecordArgs {
+                input: path.clone(),
+                fs: Some(fs),
+                rpm: Some(100.0),
+                bearing: "cwru-6205-de".into(),
+                var: Vec::new(),
+            };
+            let err = format!("{:#}", slow.load().unwrap_err());
+            assert!(err.contains("too low"), "{err}");
+        }
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
     #[test]
     fn bearing_argument() {
         assert_eq!(
