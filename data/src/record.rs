@@ -216,12 +216,7 @@ pub fn recording_from_cwru_mat(
     if channels.is_empty() {
         return Err(RecordingError::NoChannels {
             record: name.to_string(),
-            present: mat
-                .variables
-                .iter()
-                .map(|v| v.name.as_str())
-                .collect::<Vec<_>>()
-                .join(", "),
+            present: numeric_names(mat),
         }
         .into());
     }
@@ -280,6 +275,16 @@ pub(crate) fn cwru_mat_from_bytes(
     recording_from_cwru_mat(&mat, &stem_name(path), number, fs_hz, rpm)
 }
 
+/// The names of a file's numeric variables, comma-separated (for the errors that say
+/// what a file holds).
+fn numeric_names(mat: &MatFile) -> String {
+    mat.variables
+        .iter()
+        .map(|v| v.name.as_str())
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 /// Load a `.mat` file whatever its layout: each `(channel, variable)` pair names the
 /// numeric vector (a top-level variable, or a struct's field as `struct.field`) that
 /// becomes that channel, e.g. `("DE", "bearing.gs")` for an MFPT file or
@@ -319,12 +324,7 @@ pub fn load_mat_channels(
                 path: path.to_path_buf(),
                 channel: channel.clone(),
                 variable: variable.clone(),
-                present: mat
-                    .variables
-                    .iter()
-                    .map(|v| v.name.as_str())
-                    .collect::<Vec<_>>()
-                    .join(", "),
+                present: numeric_names(&mat),
             })?;
         out.push(Channel {
             name: channel.clone(),
