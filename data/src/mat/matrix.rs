@@ -130,19 +130,7 @@ impl<'a> Stream<'a> {
                 what: "array name",
             });
         }
-        let name_el = self.element(offset, Some(end), "array name")?;
-        if !matches!(
-            name_el.data_type,
-            data_type::INT8 | data_type::UINT8 | data_type::UTF8
-        ) {
-            return Err(MatError::UnexpectedDataType {
-                at: self.pos(name_el.start),
-                name: field.unwrap_or_default().to_string(),
-                what: "array name",
-                data_type: name_el.data_type,
-                expected: "miINT8",
-            });
-        }
+        let name_el = self.text_element(offset, end, field.unwrap_or_default(), "array name")?;
         let name = match field {
             Some(f) => f.to_string(),
             None => String::from_utf8_lossy(name_el.data).into_owned(),

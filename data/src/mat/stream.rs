@@ -100,6 +100,32 @@ impl<'a> Stream<'a> {
         }
     }
 
+    /// The element at `offset` inside the parent ending at `end` that holds 8-bit text
+    /// (an array's name, a struct's field names): miINT8, miUINT8 or miUTF8, else
+    /// [`MatError::UnexpectedDataType`] naming `what` of the variable `name`.
+    pub(super) fn text_element(
+        &self,
+        offset: usize,
+        end: usize,
+        name: &str,
+        what: &'static str,
+    ) -> Result<Element<'a>, MatError> {
+        let el = self.element(offset, Some(end), what)?;
+        if !matches!(
+            el.data_type,
+            data_type::INT8 | data_type::UINT8 | data_type::UTF8
+        ) {
+            return Err(MatError::UnexpectedDataType {
+                at: self.pos(el.start),
+                name: name.to_string(),
+                what,
+                data_type: el.data_type,
+                expected: "miINT8",
+            });
+        }
+        Ok(el)
+    }
+
     /// Locate the element whose tag starts at `offset`, inside the parent element
     /// ending at `parent_end`, or at stream level when that is `None`.
     pub(super) fn element(

@@ -114,19 +114,7 @@ impl<'a> Stream<'a> {
         if offset >= end {
             return Err(missing("field names"));
         }
-        let names_el = self.element(offset, Some(end), "field names")?;
-        if !matches!(
-            names_el.data_type,
-            data_type::INT8 | data_type::UINT8 | data_type::UTF8
-        ) {
-            return Err(MatError::UnexpectedDataType {
-                at: self.pos(names_el.start),
-                name: name.to_string(),
-                what: "field names",
-                data_type: names_el.data_type,
-                expected: "miINT8",
-            });
-        }
+        let names_el = self.text_element(offset, end, name, "field names")?;
         if names_el.data.len() % name_len != 0 {
             return Err(bad(format!(
                 "{} bytes of field names are not a whole number of {name_len}-byte names",
