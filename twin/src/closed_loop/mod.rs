@@ -31,7 +31,6 @@ pub use types::{
 
 use crate::twin::fault_name;
 use first_fit::first_fit;
-use record::psd_scatter_db as scatter;
 use round::{round, unexplained, Next, State};
 use setup::Setup;
 use std::time::Instant;
@@ -53,7 +52,7 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
         stop_reason: format!("reached the step limit ({})", cfg.max_steps),
         residual_noise_like: false,
     };
-    let psd_scatter = scatter(&s.x, &s.sig_fit);
+    let psd_scatter = psd_scatter_db(&s.x, &s.sig_fit);
     let last_analysis = loop {
         let (analysis, next) = round(&s, &mut st, psd_scatter)?;
         if next == Next::Stop {

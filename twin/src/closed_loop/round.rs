@@ -6,8 +6,7 @@ use super::setup::Setup;
 use super::trial::{rival_only, tried_key, Trial, Trials};
 use super::types::{LoopError, LoopStep};
 use crate::fit::FitResult;
-use crate::residual::Domain;
-use crate::residual::{analyse, Check, Component, ResidualAnalysis};
+use crate::residual::{analyse, Candidate, Check, Component, Domain, ResidualAnalysis};
 use crate::signature::{to_db, ErrorFigures, SignatureConfig};
 use crate::trace::{trace, TraceContext};
 use crate::twin::TwinModel;
@@ -148,8 +147,8 @@ pub(super) fn round(
 fn conclude(
     s: &Setup<'_>,
     st: &mut State,
-    kept: Option<(crate::residual::Candidate, FitResult)>,
-    candidates: &[crate::residual::Candidate],
+    kept: Option<(Candidate, FitResult)>,
+    candidates: &[Candidate],
     unexplained_misfit: Option<String>,
 ) -> Next {
     let accepted = kept.is_some();
