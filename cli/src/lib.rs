@@ -14,5 +14,6 @@ pub mod commands;
 pub mod compare;
 pub mod eval;
 pub mod export;
+pub mod generalization;
 pub mod predict;
 pub mod train;

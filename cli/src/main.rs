@@ -11,6 +11,7 @@ use pumptwin::commands::{
 use pumptwin::compare::{run_compare, CompareArgs};
 use pumptwin::eval::{run_eval, EvalArgs};
 use pumptwin::export::{run_export, ExportArgs};
+use pumptwin::generalization::{run_generalization, GeneralizationArgs};
 use pumptwin::predict::{run_predict, PredictArgs};
 use pumptwin::train::{run_train, TrainArgs};
 use pumptwin_data::preprocess::{PreprocessConfig, MODEL_FS_HZ};
@@ -46,6 +47,10 @@ enum Command {
     /// Evaluate a trained DS-STGAT (burn `model.bpk` or int8 model file) on a
     /// protocol's test side (metrics.json).
     Eval(EvalArgs),
+    /// Score the physical diagnosis, the plain envelope rule and an int8 model on
+    /// records of other fault sizes and other rigs (CWRU, MFPT, HIT-SM): the report
+    /// `docs/evaluation-generalization.md`.
+    EvalGeneralization(GeneralizationArgs),
     /// Quantize a trained DS-STGAT to int8 and write the postcard model file, its
     /// golden vectors, parity figures and model card.
     Export(ExportArgs),
@@ -120,6 +125,7 @@ fn main() -> anyhow::Result<()> {
         Command::Twin(cmd) => run_twin(cmd),
         Command::Train(args) => run_train(args),
         Command::Eval(args) => run_eval(args),
+        Command::EvalGeneralization(args) => run_generalization(args),
         Command::Export(args) => run_export(args),
         Command::CanEncode(args) => run_can_encode(args),
         Command::Predict(args) => run_predict(args),

@@ -26,6 +26,10 @@ use pumptwin_core::graph::GraphConfig;
 use serde::Serialize;
 
 use crate::commands::{LoadedRecord, RecordArgs};
+use pumptwin_core::diagnosis::{FaultType, Thresholds};
+use pumptwin_data::diagnose::{
+    diagnose_windows, segment_len, summarize_record, WindowDiagnosis, DEFAULT_REVOLUTIONS,
+};
 use pumptwin_data::featurize::{
     feature_config, window_features, window_graphs, MaskCounts, WindowFeatures, WINDOW,
 };
@@ -81,6 +85,87 @@ pub struct WindowPrediction {
     pub probabilities: BTreeMap<String, f32>,
     /// Nodes masked in this window.
     pub masked_nodes: Vec<String>,
+    /// The physical diagnosis of the drive-end sensor up to this window
+    /// (`pumptwin_core::diagnosis`), or why there is none.
+    pub physics: PhysicsWindow,
+}
+
+/// One window's physical diagnosis as `predict` reports it.
+#[derive(Debug, Clone, Serialize)]
+#[serde(untagged)]
+pub enum PhysicsWindow {
+    /// Diagnosed.
+    Diagnosed {
+        /// `normal`, `inner_race`, `outer_race`, `ball` or `no_clear_signature`.
+        fault_type: &'static str,
+        /// Probability that the type is right (calibrated on the development records).
+        confidence: f32,
+        /// Impact power over the band's background power, dB.
+        severity_db: f32,
+        /// Its standard uncertainty, dB.
+        severity_uncertainty_db: f32,
+        /// The most impulsive band, Hz.
+        band_hz: [f32; 2],
+        /// Its spectral kurtosis (0 for Gaussian noise).
+        spectral_kurtosis: f32,
+        /// Each family's line level over the envelope spectrum's median, dB:
+        /// `[outer_race, inner_race, ball]`.
+        line_levels_db: [f32; 3],
+    },
+    /// Not diagnosed.
+    Failed {
+        /// Why.
+        error: String,
+    },
+}
+
+impl PhysicsWindow {
+    fn of(d: &pumptwin_data::diagnose::WindowDiagnosis) -> Self {
+        match d {
+            Ok(d) => Self::Diagnosed {
+                fault_type: d.fault.name(),
+                confidence: d.confidence,
+                severity_db: d.severity.impact_to_background_db,
+                severity_uncertainty_db: d.severity.uncertainty_db,
+                band_hz: [d.evidence.band_lo_hz, d.evidence.band_hi_hz],
+                spectral_kurtosis: d.evidence.spectral_kurtosis,
+                line_levels_db: d.evidence.lines.map(|l| l.level_db),
+            },
+            Err(e) => Self::Failed {
+                error: e.to_string(),
+            },
+        }
+    }
+}
+
+/// The record's diagnosis in physical terms: the physics' type where it is decisive
+/// (a typed line or a quiet, lineless signal), else the network's type.
+#[derive(Debug, Clone, Serialize)]
+pub struct RecordDiagnosisReport {
+    /// `normal`, `inner_race`, `outer_race`, `ball` or `no_clear_signature`.
+    pub fault_type: &'static str,
+    /// `physics` or `network`: which decided.
+    pub decided_by: &'static str,
+    /// Probability that the type is right: the physics' mean calibrated confidence
+    /// over its windows of that type, or the network's share of windows of it.
+    pub confidence: f32,
+    /// The physics' severity of the majority type's windows.
+    pub severity: SeverityReport,
+    /// The physics' windows per type.
+    pub physics_windows: BTreeMap<&'static str, usize>,
+    /// Windows the physics could not diagnose (a flat or non-finite sensor).
+    pub physics_failed_windows: usize,
+}
+
+/// A severity with its unit.
+#[derive(Debug, Clone, Serialize)]
+pub struct SeverityReport {
+    /// Impact power over the resonance band's background power.
+    pub impact_to_background_db: f32,
+    /// Standard uncertainty.
+    pub uncertainty_db: f32,
+    /// `dB`.
+    pub unit: &'static str,
 }
 
 /// The report of `predict`.
@@ -112,6 +197,9 @@ pub struct Prediction {
     pub majority_class: String,
     /// Windows per class.
     pub class_counts: BTreeMap<String, usize>,
+    /// The diagnosis in physical terms (`null` without a drive-end channel or when
+    /// no window could be diagnosed).
+    pub diagnosis: Option<RecordDiagnosisReport>,
 }
 
 /// Run `pumptwin predict`.
@@ -135,27 +223,30 @@ pub fn run_predict(args: &PredictArgs) -> Result<()> {
         rec.len(),
         rec.fs_hz
     );
-    // Model-specific normalization, graph and forward. A burn model's config (classes,
-    // graph, architecture, nodes) is read once and its network loaded in inference mode
-    // (batch norm on its running statistics, no dropout).
+    // The physics on the drive-end sensor, each window read with the 16 shaft
+    // revolutions before its end (pumptwin_data::diagnose).
+    let shaft_hz = rpm / 60.0;
+    let segment = segment_len(rec.fs_hz, shaft_hz, DEFAULT_REVOLUTIONS, WINDOW);
+    let physics = diagnose_windows(
+        &rec,
+        "DE",
+        &starts,
+        WINDOW,
+        segment,
+        shaft_hz,
+        &bearing.orders(),
+        &Thresholds::DEFAULT,
+    );
+    // Model-specific normalization, graph and forward.
     let device = Device::flex();
-    let model = if is_model_file(&args.model) {
-        PredictModel::Int8(load_model_file(&args.model)?)
-    } else {
-        let (cfg, norms) = load_trained_config(&args.model)?;
-        let (norm, _) = norms.context("no normalization.json beside the burn model")?;
-        let net = Network::init(&cfg, cfg.classes.len(), &device)?
-            .load(&args.model)?
-            .valid()
-            .with_line_vote(&norm, &cfg.classes)?;
-        PredictModel::Burn { cfg, norm, net }
-    };
+    let model = load_model(&args.model, &device)?;
     let input = Input {
         args,
         fs_hz_input: raw.fs_hz,
         rec: &rec,
         cfg: &cfg,
         starts: &starts,
+        physics: physics.as_deref(),
     };
     match &model {
         PredictModel::Burn { cfg, .. } if cfg.node_set()? == NodeSet::Derived => {
@@ -165,6 +256,23 @@ pub fn run_predict(args: &PredictArgs) -> Result<()> {
     }
 }
 
+/// The int8 model file or burn model at `path`. A burn model's config (classes,
+/// graph, architecture, nodes) is read once and its network loaded in inference mode
+/// (batch norm on its running statistics, no dropout).
+fn load_model(path: &Path, device: &Device) -> Result<PredictModel> {
+    Ok(if is_model_file(path) {
+        PredictModel::Int8(load_model_file(path)?)
+    } else {
+        let (cfg, norms) = load_trained_config(path)?;
+        let (norm, _) = norms.context("no normalization.json beside the burn model")?;
+        let net = Network::init(&cfg, cfg.classes.len(), device)?
+            .load(path)?
+            .valid()
+            .with_line_vote(&norm, &cfg.classes)?;
+        PredictModel::Burn { cfg, norm, net }
+    })
+}
+
 /// The recording and its windows, as `predict` prepared them.
 struct Input<'a> {
     args: &'a PredictArgs,
@@ -172,6 +280,8 @@ struct Input<'a> {
     rec: &'a pumptwin_data::record::Recording,
     cfg: &'a pumptwin_core::features::FeatureConfig,
     starts: &'a [usize],
+    /// The physics per window start, `None` without a drive-end channel.
+    physics: Option<&'a [WindowDiagnosis]>,
 }
 
 /// `predict` for a model whose nodes are `nodes`.
@@ -187,6 +297,7 @@ fn predict_with<const N: usize>(
         rec,
         cfg,
         starts,
+        physics,
     } = *input;
     // Derived nodes come from each window's own samples: the windows end to end.
     let (scratch, src_starts) = feature_source(rec, starts, &nodes);
@@ -200,7 +311,10 @@ fn predict_with<const N: usize>(
     let with_raw = matches!(model, PredictModel::Burn { net, .. } if net.raw());
     let ds = model_dataset(&feats, &norm, &graph, &src, &nodes, with_raw)?;
     let probs = class_probabilities(model, &ds, with_raw, &classes, device)?;
-    let (windows, class_counts) = window_predictions(&feats, &probs, &classes, &nodes, rec.fs_hz);
+    let (windows, class_counts) =
+        window_predictions(&feats, &probs, &classes, &nodes, rec.fs_hz, physics);
+    let majority = majority_class(&class_counts);
+    let diagnosis = physics.and_then(|p| record_diagnosis(p, &majority, &class_counts));
     let report = Prediction {
         input: args.record.input.display().to_string(),
         model: args.model.display().to_string(),
@@ -215,8 +329,9 @@ fn predict_with<const N: usize>(
         no_signal_windows: feats.no_signal,
         samples_after_last_window: starts.last().map_or(0, |s| rec.len() - (s + WINDOW)),
         windows,
-        majority_class: majority_class(&class_counts),
+        majority_class: majority,
         class_counts,
+        diagnosis,
     };
     write_report(&report, args.out.as_deref())?;
     print_summary(&report);
@@ -394,11 +509,12 @@ fn window_predictions<const N: usize>(
     classes: &[String],
     nodes: &[&'static str; N],
     fs_hz: f32,
+    physics: Option<&[WindowDiagnosis]>,
 ) -> (Vec<WindowPrediction>, BTreeMap<String, usize>) {
     let mut windows = Vec::with_capacity(feats.windows.len());
     let mut class_counts: BTreeMap<String, usize> = BTreeMap::new();
     let mut probs = probs.iter();
-    for (w, &ok) in feats.windows.iter().zip(&feats.usable) {
+    for (k, (w, &ok)) in feats.windows.iter().zip(&feats.usable).enumerate() {
         // The diagnosed windows' probabilities come in window order.
         let (class, probabilities) = match ok.then(|| probs.next()).flatten() {
             Some(p) => {
@@ -422,9 +538,67 @@ fn window_predictions<const N: usize>(
                 .filter(|(_, m)| !m)
                 .map(|(n, _)| (*n).to_string())
                 .collect(),
+            physics: match physics.and_then(|p| p.get(k)) {
+                Some(d) => PhysicsWindow::of(d),
+                None => PhysicsWindow::Failed {
+                    error: "no drive-end (DE) channel".to_string(),
+                },
+            },
         });
     }
     (windows, class_counts)
+}
+
+/// The record's diagnosis: the physics' majority type where it is decisive (typed
+/// or normal), else the network's majority class's type; `None` when the physics
+/// diagnosed no window.
+fn record_diagnosis(
+    physics: &[WindowDiagnosis],
+    majority: &str,
+    class_counts: &BTreeMap<String, usize>,
+) -> Option<RecordDiagnosisReport> {
+    let r = summarize_record(physics)?;
+    let decisive = r.fault != FaultType::NoClearSignature;
+    let network = fault_type_of_class(majority);
+    let (fault, decided_by, confidence) = match network {
+        Some(t) if !decisive => {
+            let total: usize = class_counts.values().sum();
+            let share = class_counts.get(majority).copied().unwrap_or(0) as f32;
+            (t, "network", share / total.max(1) as f32)
+        }
+        _ => (r.fault, "physics", r.confidence),
+    };
+    Some(RecordDiagnosisReport {
+        fault_type: fault.name(),
+        decided_by,
+        confidence,
+        severity: SeverityReport {
+            impact_to_background_db: r.severity.impact_to_background_db,
+            uncertainty_db: r.severity.uncertainty_db,
+            unit: "dB",
+        },
+        physics_windows: FaultType::ALL
+            .iter()
+            .zip(r.counts)
+            .map(|(t, n)| (t.name(), n))
+            .collect(),
+        physics_failed_windows: r.failed,
+    })
+}
+
+/// The physical type a CWRU class name stands for (`IR…`, `OR…`, `B…`, `normal`).
+pub fn fault_type_of_class(class: &str) -> Option<FaultType> {
+    if class.starts_with("IR") {
+        Some(FaultType::InnerRace)
+    } else if class.starts_with("OR") {
+        Some(FaultType::OuterRace)
+    } else if class.starts_with('B') {
+        Some(FaultType::Ball)
+    } else if class == "normal" {
+        Some(FaultType::Normal)
+    } else {
+        None
+    }
 }
 
 /// The most frequent class (empty when no window was diagnosed).
@@ -453,7 +627,7 @@ fn write_report(report: &Prediction, out: Option<&Path>) -> Result<()> {
 /// The one-line summary on standard error.
 fn print_summary(report: &Prediction) {
     eprintln!(
-        "{}: {} windows at {} Hz{}; majority class {} ({} of {}){}{}",
+        "{}: {} windows at {} Hz{}; majority class {} ({} of {}){}{}{}",
         report.input,
         report.windows.len(),
         report.fs_hz_model,
@@ -483,6 +657,79 @@ fn print_summary(report: &Prediction) {
                 "; nodes {:?} not in the recording: masked",
                 report.missing_nodes
             )
+        },
+        match &report.diagnosis {
+            Some(d) => format!(
+                "; diagnosis {} (confidence {:.2}, by {}), severity {:.1} ± {:.1} dB impact over background",
+                d.fault_type,
+                d.confidence,
+                d.decided_by,
+                d.severity.impact_to_background_db,
+                d.severity.uncertainty_db
+            ),
+            None => "; no physical diagnosis (no usable drive-end channel)".to_string(),
         }
     );
+}
+
+/// A model `predict` can run, loaded once: an int8 model file or a burn model.
+pub struct LoadedPredictModel {
+    model: PredictModel,
+    device: Device,
+}
+
+impl std::fmt::Debug for LoadedPredictModel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let kind = match &self.model {
+            PredictModel::Int8(_) => ARCH_INT8.to_string(),
+            PredictModel::Burn { cfg, .. } => cfg.report_name(),
+        };
+        f.debug_struct("LoadedPredictModel")
+            .field("arch", &kind)
+            .finish_non_exhaustive()
+    }
+}
+
+impl LoadedPredictModel {
+    /// Load the int8 model file or burn `model.bpk` at `path`.
+    pub fn load(path: &Path) -> Result<Self> {
+        pumptwin_trainer::export::check_model_path(path)?;
+        let device = Device::flex();
+        let model = load_model(path, &device)?;
+        Ok(Self { model, device })
+    }
+
+    /// The model's class per window of `rec` (at the model rate) starting at
+    /// `starts`: `None` for a window with no usable sensor. Exactly `predict`'s path
+    /// (three-node models only).
+    pub fn window_classes(
+        &self,
+        rec: &pumptwin_data::record::Recording,
+        cfg: &pumptwin_core::features::FeatureConfig,
+        starts: &[usize],
+        input: &Path,
+    ) -> Result<Vec<Option<String>>> {
+        if let PredictModel::Burn { cfg, .. } = &self.model {
+            anyhow::ensure!(
+                cfg.node_set()? != NodeSet::Derived,
+                "a model with derived nodes is not scored here"
+            );
+        }
+        let src = Source { rec, starts };
+        let feats = featurize(&src, &NODES, cfg, starts, input)?;
+        let (classes, norm, graph) = normalization_and_graph::<{ NODES.len() }>(&self.model)?;
+        let with_raw = matches!(&self.model, PredictModel::Burn { net, .. } if net.raw());
+        let ds = model_dataset(&feats, &norm, &graph, &src, &NODES, with_raw)?;
+        let probs = class_probabilities(&self.model, &ds, with_raw, &classes, &self.device)?;
+        let mut probs = probs.iter();
+        Ok(feats
+            .usable
+            .iter()
+            .map(|&ok| {
+                let p = ok.then(|| probs.next()).flatten()?;
+                let best = (0..p.len()).fold(0, |b, c| if p[c] > p[b] { c } else { b });
+                classes.get(best).cloned()
+            })
+            .collect())
+    }
 }

@@ -10,6 +10,7 @@
 //! | [`simulator`] | 2-DOF mass–damper–stiffness model with cubic stiffness, fixed-step RK4, sensor nodes | eqs. 16–17, 21–22 |
 //! | [`fft`] | radix-2 FFT (no plan: twiddles from a recurrence, in place) | §4.3, §5.3 |
 //! | [`fir`] | windowed-sinc low-pass, the common band limit and anti-alias filter | — |
+//! | [`diagnosis`] | the physical diagnosis of a window: the most impulsive band (spectral kurtosis), defect-line levels in orders of the told geometry, type, confidence and severity as ratios (no gain enters) | §5.2 (defect rates) |
 //! | [`dsp`] | general-purpose DSP under the features: Hilbert envelope and its spectrum, spectral peaks and harmonic levels, quickselect / median, segment time statistics | — |
 //! | [`features`] | time, spectral and envelope-spectrum node features | eq. 9, Table 3 |
 //! | [`tracking`] | on-edge tracking of radial stiffness and damping Θ by eq. 10 steps on a feature-space loss against the RK4 model | §4.3 eq. 10, eqs. 16–22 |
@@ -45,6 +46,7 @@
 extern crate std;
 
 pub mod bearing;
+pub mod diagnosis;
 pub mod dsp;
 pub mod dsstgat;
 mod error;

@@ -22,6 +22,7 @@
 //! | [`summary`] | what `pumptwin data summary` prints for CWRU (records, windows, splits) |
 //! | [`rig_summary`] | what it prints for MFPT and HIT-SM (every record read or refused) |
 //! | [`featurize`] | records → windows → the core's node features and dynamic graphs |
+//! | [`diagnose`] | the core's physical diagnosis over a recording's windows, and per record (majority type, confidence, severity) |
 //! | [`derived`] | the paper's derived temperature and pressure nodes (§6.2) |
 //!
 //! The order of work: load a [`Recording`] at its own rate, [`preprocess()`] it to the
@@ -32,6 +33,7 @@
 pub mod csv;
 pub mod datasets;
 pub mod derived;
+pub mod diagnose;
 pub mod entry;
 pub mod featurize;
 pub mod hit_sm;

@@ -1,0 +1,697 @@
+//! `pumptwin eval-generalization`: the physical diagnosis, the plain envelope rule and
+//! the shipped int8 DS-STGAT on records nobody tuned them on, scored per window and
+//! per record (majority), with a confusion matrix per protocol and the severity's rank
+//! correlation with the true defect size (`docs/evaluation-generalization.md`).
+//!
+//! | protocol | records | role |
+//! |---|---|---|
+//! | `cwru-dev` | CWRU drive end, 0.007" and 0.021" at 0–3 HP, and the normal record | development: every threshold of `pumptwin_core::diagnosis` is chosen here |
+//! | `fault-size` | CWRU drive end, 0.014" at 0–3 HP | held out |
+//! | `cross-rig-mfpt` | MFPT, 7 outer- and 7 inner-race records | held out |
+//! | `cross-rig-hit` | HIT-SM self-built rig, 18 fault records (3 sizes × 3 speeds × 2 races) and 3 normal | held out |
+//!
+//! Every record is read at its own rate and brought to the model rate by the same
+//! preprocessing as `predict` (anti-alias, resampling, the common band limit), cut into
+//! the windows of the core's layout, and diagnosed on its drive-end (or only) channel.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use pumptwin_core::bearing::{BearingGeometry, DefectOrders};
+use pumptwin_core::diagnosis::{FaultType, Thresholds};
+use pumptwin_core::features::{envelope_spectrum, harmonic_level_db, EnvelopeBand};
+use pumptwin_core::fft::Complex32;
+use pumptwin_core::layout::{HOP, WINDOW};
+use pumptwin_data::datasets::{read_dataset_manifest, DatasetFault};
+use pumptwin_data::diagnose::{
+    diagnose_windows, segment_len, summarize_record, type_index, WindowDiagnosis,
+    DEFAULT_REVOLUTIONS,
+};
+use pumptwin_data::featurize::feature_config;
+use pumptwin_data::manifest::{read_manifest, FaultType as CwruType};
+use pumptwin_data::preprocess::{preprocess, PreprocessConfig};
+use pumptwin_data::recording::Recording;
+
+/// `pumptwin eval-generalization`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct GeneralizationArgs {
+    /// Folder holding `cwru/`, `mfpt/` and `hit_sm/` (each with its MANIFEST.tsv); a
+    /// missing one is skipped with a notice.
+    #[arg(long, default_value = "../shared/data")]
+    pub data: PathBuf,
+    /// The DS-STGAT trained on CWRU (int8 model file or burn model), scored on the
+    /// other rigs. It is not scored on CWRU: the shipped model trained on windows of
+    /// every CWRU record.
+    #[arg(long, default_value = "models/dsstgat-cwru-tb.ptm")]
+    pub model: PathBuf,
+    /// A DS-STGAT trained on the `fault-size` protocol, scored on its test side.
+    #[arg(long)]
+    pub fault_size_model: Option<PathBuf>,
+    /// A WDCNN trained on CWRU (burn `model.bpk`), scored on the other rigs.
+    #[arg(long)]
+    pub wdcnn: Option<PathBuf>,
+    /// A WDCNN trained on the `fault-size` protocol, scored on its test side.
+    #[arg(long)]
+    pub fault_size_wdcnn: Option<PathBuf>,
+    /// Write the markdown report here.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Also write every window's evidence and decisions as TSV here.
+    #[arg(long)]
+    pub windows_tsv: Option<PathBuf>,
+    /// Samples of record (a power of two) each window's physical diagnosis reads: the
+    /// window and what came before it (default: `DEFAULT_REVOLUTIONS` of the shaft).
+    #[arg(long)]
+    pub segment: Option<usize>,
+}
+
+/// One record of a protocol, at the model rate.
+struct Case {
+    protocol: &'static str,
+    record: String,
+    truth: FaultType,
+    /// True defect size and its unit, where the data set states one.
+    size: Option<(f32, &'static str)>,
+    /// Records of one rig, fault type and operating condition: severity is ranked
+    /// against size inside a group.
+    group: String,
+    rec: Recording,
+    rpm: f32,
+    orders: DefectOrders,
+}
+
+/// Per window of a case: the physics, the envelope rule, the networks (`None` where
+/// no network that never saw the record was given).
+struct Scored {
+    physics: Vec<WindowDiagnosis>,
+    envelope: Vec<FaultType>,
+    networks: [Option<Vec<Option<FaultType>>>; 2],
+}
+
+/// The methods compared, in table order: the physics, the plain envelope rule, the
+/// DS-STGAT and the WDCNN, and the physics with the DS-STGAT's type where the physics
+/// sees no clear signature.
+const METHODS: [&str; 5] = [
+    "physics",
+    "envelope rule",
+    "DS-STGAT",
+    "WDCNN",
+    "physics, else DS-STGAT",
+];
+
+/// The networks scored on one protocol: DS-STGAT and WDCNN.
+type Networks = [Option<crate::predict::LoadedPredictModel>; 2];
+
+/// Run it.
+pub fn run_generalization(args: &GeneralizationArgs) -> Result<()> {
+    let t0 = std::time::Instant::now();
+    let cases = load_cases(&args.data)?;
+    anyhow::ensure!(
+        !cases.is_empty(),
+        "no record found under {}",
+        args.data.display()
+    );
+    let load = |p: &Option<PathBuf>| {
+        p.as_deref()
+            .map(crate::predict::LoadedPredictModel::load)
+            .transpose()
+    };
+    let cross_rig: Networks = [load(&Some(args.model.clone()))?, load(&args.wdcnn)?];
+    let fault_size: Networks = [load(&args.fault_size_model)?, load(&args.fault_size_wdcnn)?];
+    let none: Networks = [None, None];
+    let thresholds = Thresholds::DEFAULT;
+    let mut scored = Vec::with_capacity(cases.len());
+    for c in &cases {
+        let networks = match c.protocol {
+            "fault-size" => &fault_size,
+            "cwru-dev" => &none,
+            _ => &cross_rig,
+        };
+        scored.push(score_case(c, networks, &thresholds, args.segment)?);
+        eprintln!("{} {}: done", c.protocol, c.record);
+    }
+    if let Some(path) = &args.windows_tsv {
+        std::fs::write(path, windows_tsv(&cases, &scored))
+            .with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    let text = report(args, &cases, &scored, t0.elapsed().as_secs_f64());
+    std::fs::write(&args.out, text)
+        .with_context(|| format!("cannot write {}", args.out.display()))?;
+    Ok(())
+}
+
+fn preprocess_to_model_rate(raw: &Recording) -> Result<Recording> {
+    preprocess(raw, &PreprocessConfig::default()).context("preprocess")
+}
+
+/// Every record of the protocols (a data set that is absent is skipped with a notice).
+fn load_cases(data: &Path) -> Result<Vec<Case>> {
+    let mut cases = Vec::new();
+    let cwru = data.join("cwru");
+    if cwru.join("MANIFEST.tsv").exists() {
+        for e in read_manifest(&cwru)? {
+            let truth = match e.fault_type {
+                CwruType::Normal => FaultType::Normal,
+                CwruType::InnerRace => FaultType::InnerRace,
+                CwruType::OuterRace => FaultType::OuterRace,
+                CwruType::Ball => FaultType::Ball,
+            };
+            let raw = pumptwin_data::entry::load_entry(&e)?;
+            let rec = preprocess_to_model_rate(&raw)?;
+            let rpm = rec
+                .rpm
+                .or(e.rpm_recorded)
+                .context("CWRU record without a speed")?;
+            let mils = e.fault_size_mils();
+            cases.push(Case {
+                protocol: if mils == 14 { "fault-size" } else { "cwru-dev" },
+                record: e.label.clone(),
+                truth,
+                size: (mils > 0).then_some((e.fault_size_in, "in")),
+                group: format!("cwru {} {} HP", e.fault_type.as_str(), e.load_hp),
+                rec,
+                rpm,
+                orders: BearingGeometry::CWRU_6205_DE.orders(),
+            });
+        }
+    } else {
+        eprintln!("notice: {} absent, CWRU protocols skipped", cwru.display());
+    }
+    let rigs: [(&str, &'static str, BearingGeometry); 2] = [
+        (
+            "mfpt",
+            "cross-rig-mfpt",
+            BearingGeometry::new(8, 0.235, 1.245, 0.0)?,
+        ),
+        ("hit_sm", "cross-rig-hit", BearingGeometry::CWRU_6205_DE),
+    ];
+    for (dir, protocol, bearing) in rigs {
+        let path = data.join(dir);
+        if !path.join("MANIFEST.tsv").exists() {
+            eprintln!("notice: {} absent, {protocol} skipped", path.display());
+            continue;
+        }
+        for e in read_dataset_manifest(&path)? {
+            let truth = match e.fault {
+                DatasetFault::Normal => FaultType::Normal,
+                DatasetFault::InnerRace => FaultType::InnerRace,
+                DatasetFault::OuterRace => FaultType::OuterRace,
+                DatasetFault::Unknown => continue,
+            };
+            let raw = if dir == "mfpt" {
+                pumptwin_data::mfpt::load_mfpt(&e)?.recording
+            } else {
+                pumptwin_data::hit_sm::load_hit_sm(&e)?.recording
+            };
+            let size = pumptwin_data::hit_sm::fault_size_deg(&e.label)
+                .filter(|_| dir == "hit_sm")
+                .map(|d| (d as f32, "deg"));
+            cases.push(Case {
+                protocol,
+                record: e.file.clone(),
+                truth,
+                size,
+                group: format!("{dir} {} {} rpm", e.fault.as_str(), e.rpm),
+                rec: preprocess_to_model_rate(&raw)?,
+                rpm: e.rpm,
+                orders: bearing.orders(),
+            });
+        }
+    }
+    Ok(cases)
+}
+
+/// The plain envelope rule on one window: the 500 Hz – 5 kHz envelope spectrum, the
+/// family (BPFO, BPFI, BSF; two harmonics, 1.5 % slip) with the highest level over the
+/// spectrum's median names the type. No learning, no normal.
+fn envelope_rule(x: &[f32], fs: f32, shaft: f32, o: &DefectOrders) -> FaultType {
+    let n = x.len();
+    let mut scratch = vec![Complex32::ZERO; n];
+    let mut env = vec![0.0f32; n];
+    let mut spec = vec![0.0f32; n / 2 + 1];
+    if envelope_spectrum(
+        x,
+        fs,
+        EnvelopeBand::DEFAULT,
+        &mut scratch,
+        &mut env,
+        &mut spec,
+    )
+    .is_err()
+    {
+        return FaultType::NoClearSignature;
+    }
+    let k_hi = ((3.0 * o.bpfi.max(o.bpfo) * shaft) / (fs / n as f32)) as usize;
+    let mut bins: Vec<f32> = spec.get(1..=k_hi.min(n / 2)).unwrap_or_default().to_vec();
+    bins.sort_by(f32::total_cmp);
+    let floor = bins.get(bins.len() / 2).copied().unwrap_or(0.0);
+    let level = |order: f32| harmonic_level_db(&spec, fs, order * shaft, 2, 0.015, floor);
+    let levels = [
+        (FaultType::OuterRace, level(o.bpfo)),
+        (FaultType::InnerRace, level(o.bpfi)),
+        (FaultType::Ball, level(o.bsf)),
+    ];
+    levels
+        .iter()
+        .fold(levels[0], |b, &l| if l.1 > b.1 { l } else { b })
+        .0
+}
+
+/// The type a CWRU class name stands for (`no_clear_signature` for any other name).
+fn class_type(class: &str) -> FaultType {
+    crate::predict::fault_type_of_class(class).unwrap_or(FaultType::NoClearSignature)
+}
+
+fn score_case(
+    c: &Case,
+    networks: &Networks,
+    t: &Thresholds,
+    segment: Option<usize>,
+) -> Result<Scored> {
+    let starts: Vec<usize> = (0..)
+        .map(|k| k * HOP)
+        .take_while(|s| s + WINDOW <= c.rec.len())
+        .collect();
+    let shaft = c.rpm / 60.0;
+    let segment =
+        segment.unwrap_or_else(|| segment_len(c.rec.fs_hz, shaft, DEFAULT_REVOLUTIONS, WINDOW));
+    let physics = diagnose_windows(&c.rec, "DE", &starts, WINDOW, segment, shaft, &c.orders, t)
+        .context("no DE channel")?;
+    let de = &c.rec.channel("DE").context("no DE channel")?.samples;
+    let envelope = starts
+        .iter()
+        .map(|&s| envelope_rule(&de[s..s + WINDOW], c.rec.fs_hz, shaft, &c.orders))
+        .collect();
+    let cfg = feature_config(c.rec.fs_hz, shaft, c.orders);
+    let mut scored = [None, None];
+    for (out, net) in scored.iter_mut().zip(networks) {
+        if let Some(net) = net {
+            let classes = net.window_classes(&c.rec, &cfg, &starts, Path::new(&c.record))?;
+            *out = Some(
+                classes
+                    .iter()
+                    .map(|k| k.as_deref().map(class_type))
+                    .collect(),
+            );
+        }
+    }
+    Ok(Scored {
+        physics,
+        envelope,
+        networks: scored,
+    })
+}
+
+impl Scored {
+    /// Per window, the type method `m` of [`METHODS`] gives (`None`: not
+    /// diagnosed); `None` for a network that was not scored.
+    fn types(&self, m: usize) -> Option<Vec<Option<FaultType>>> {
+        let physics = || -> Vec<Option<FaultType>> {
+            self.physics
+                .iter()
+                .map(|d| d.as_ref().ok().map(|d| d.fault))
+                .collect()
+        };
+        match m {
+            0 => Some(physics()),
+            1 => Some(self.envelope.iter().copied().map(Some).collect()),
+            2 | 3 => self.networks[m - 2].clone(),
+            _ => {
+                let net = self.networks[0].as_ref()?;
+                Some(
+                    physics()
+                        .into_iter()
+                        .zip(net)
+                        .map(|(p, n)| match p {
+                            Some(FaultType::NoClearSignature) | None => *n,
+                            p => p,
+                        })
+                        .collect(),
+                )
+            }
+        }
+    }
+}
+
+/// The majority of `types` (ties: the first in FaultType::ALL order).
+fn majority(types: &[Option<FaultType>]) -> Option<FaultType> {
+    let mut n = [0usize; 5];
+    for t in types.iter().flatten() {
+        n[type_index(*t)] += 1;
+    }
+    let best = (0..5).fold(0, |b, i| if n[i] > n[b] { i } else { b });
+    (n[best] > 0).then(|| FaultType::ALL[best])
+}
+
+fn windows_tsv(cases: &[Case], scored: &[Scored]) -> String {
+    let mut s = String::from(
+        "protocol\trecord\ttruth\twindow\tsk\tband_lo_hz\touter_db\tinner_db\tball_db\touter_sev_db\tinner_sev_db\tball_sev_db\tphysics\tenvelope\tdsstgat\n",
+    );
+    for (c, sc) in cases.iter().zip(scored) {
+        for (k, d) in sc.physics.iter().enumerate() {
+            let Ok(d) = d else { continue };
+            let e = &d.evidence;
+            let _ = writeln!(
+                s,
+                "{}\t{}\t{}\t{k}\t{:.3}\t{:.0}\t{:.2}\t{:.2}\t{:.2}\t{:.2}\t{:.2}\t{:.2}\t{}\t{}\t{}",
+                c.protocol,
+                c.record,
+                c.truth.name(),
+                e.spectral_kurtosis,
+                e.band_lo_hz,
+                e.lines[0].level_db,
+                e.lines[1].level_db,
+                e.lines[2].level_db,
+                e.lines[0].impact_to_background_db,
+                e.lines[1].impact_to_background_db,
+                e.lines[2].impact_to_background_db,
+                d.fault.name(),
+                sc.envelope[k].name(),
+                sc.networks[0]
+                    .as_ref()
+                    .and_then(|n| n[k])
+                    .map_or("none", FaultType::name),
+            );
+        }
+    }
+    s
+}
+
+/// Spearman's rank correlation of two equally long lists (average ranks for ties).
+pub fn spearman(a: &[f32], b: &[f32]) -> Option<f32> {
+    fn ranks(v: &[f32]) -> Vec<f32> {
+        let mut idx: Vec<usize> = (0..v.len()).collect();
+        idx.sort_by(|&i, &j| v[i].total_cmp(&v[j]));
+        let mut r = vec![0.0f32; v.len()];
+        let mut i = 0;
+        while i < idx.len() {
+            let mut j = i;
+            while j + 1 < idx.len() && v[idx[j + 1]] == v[idx[i]] {
+                j += 1;
+            }
+            for &k in &idx[i..=j] {
+                r[k] = (i + j) as f32 / 2.0;
+            }
+            i = j + 1;
+        }
+        r
+    }
+    if a.len() != b.len() || a.len() < 3 {
+        return None;
+    }
+    let (ra, rb) = (ranks(a), ranks(b));
+    let m = (a.len() - 1) as f32 / 2.0;
+    let (mut sab, mut saa, mut sbb) = (0.0f32, 0.0f32, 0.0f32);
+    for (x, y) in ra.iter().zip(&rb) {
+        sab += (x - m) * (y - m);
+        saa += (x - m) * (x - m);
+        sbb += (y - m) * (y - m);
+    }
+    (saa > 0.0 && sbb > 0.0).then(|| sab / (saa * sbb).sqrt())
+}
+
+fn report(args: &GeneralizationArgs, cases: &[Case], scored: &[Scored], seconds: f64) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "# Generalization: the physical diagnosis on records nobody tuned it on\n\n\
+         Generated by `pumptwin eval-generalization {}` ({seconds:.0} s, 2-core VM). Every threshold of `pumptwin_core::diagnosis` was chosen on \
+         `cwru-dev` only; the other protocols are held out.\n",
+        command_line(args)
+    );
+    let mut protocols: Vec<&str> = Vec::new();
+    for c in cases {
+        if !protocols.contains(&c.protocol) {
+            protocols.push(c.protocol);
+        }
+    }
+    s.push_str(&summary_table(&protocols, cases, scored));
+    for p in &protocols {
+        s.push_str(&protocol_section(p, cases, scored));
+    }
+    s.push_str(&calibration_section(&protocols, cases, scored));
+    s.push_str(&severity_section(cases, scored));
+    s
+}
+
+/// Whether the physics' confidence is calibrated on each protocol: per kind of call,
+/// how often it is right against its mean confidence, and the expected calibration
+/// error over ten confidence bins.
+fn calibration_section(protocols: &[&str], cases: &[Case], scored: &[Scored]) -> String {
+    let mut s = String::from(
+        "## Calibration of the physics' confidence\n\n\
+         Per protocol and kind of call: windows, how many are right, their mean \
+         confidence, and the expected calibration error (ten bins of confidence; 0 = \
+         the confidence is the rate of being right). `no_clear_signature` claims \
+         nothing and has confidence 0. A normal call's confidence is a constant (the \
+         rate at which a quiet, lineless window is healthy on the development side, \
+         the four states weighted equally), so its ECE is the distance of that rate \
+         from each protocol's own mix of states.\n\n\
+         | protocol | call | windows | right | mean confidence | ECE |\n\
+         |---|---|---:|---:|---:|---:|\n",
+    );
+    for p in protocols {
+        for (kind, typed) in [("typed fault", true), ("normal", false)] {
+            let mut calls: Vec<(f32, bool)> = Vec::new();
+            for (c, sc) in cases.iter().zip(scored).filter(|(c, _)| c.protocol == *p) {
+                for d in sc.physics.iter().filter_map(|d| d.as_ref().ok()) {
+                    let is_typed =
+                        !matches!(d.fault, FaultType::Normal | FaultType::NoClearSignature);
+                    let counts = if typed {
+                        is_typed
+                    } else {
+                        d.fault == FaultType::Normal
+                    };
+                    if counts {
+                        calls.push((d.confidence, d.fault == c.truth));
+                    }
+                }
+            }
+            if calls.is_empty() {
+                continue;
+            }
+            let n = calls.len() as f32;
+            let right = calls.iter().filter(|c| c.1).count();
+            let mean = calls.iter().map(|c| c.0).sum::<f32>() / n;
+            let mut bins = [(0.0f32, 0.0f32, 0usize); 10];
+            for (conf, ok) in &calls {
+                let b = ((conf * 10.0) as usize).min(9);
+                bins[b].0 += conf;
+                bins[b].1 += f32::from(u8::from(*ok));
+                bins[b].2 += 1;
+            }
+            let ece = bins.iter().map(|b| (b.0 - b.1).abs()).sum::<f32>() / n;
+            let _ = writeln!(
+                s,
+                "| `{p}` | {kind} | {} | {:.1} % | {mean:.2} | {ece:.3} |",
+                calls.len(),
+                100.0 * right as f32 / n
+            );
+        }
+    }
+    s.push('\n');
+    s
+}
+
+/// The flags that reproduce the report.
+fn command_line(args: &GeneralizationArgs) -> String {
+    let mut c = format!(
+        "--data {} --model {}",
+        args.data.display(),
+        args.model.display()
+    );
+    let optional = [
+        ("--fault-size-model", &args.fault_size_model),
+        ("--wdcnn", &args.wdcnn),
+        ("--fault-size-wdcnn", &args.fault_size_wdcnn),
+    ];
+    for (flag, path) in optional {
+        if let Some(p) = path {
+            let _ = write!(c, " {flag} {}", p.display());
+        }
+    }
+    if let Some(s) = args.segment {
+        let _ = write!(c, " --segment {s}");
+    }
+    let _ = write!(c, " --out {}", args.out.display());
+    c
+}
+
+/// Windows and records typed right per protocol and method.
+fn summary_table(protocols: &[&str], cases: &[Case], scored: &[Scored]) -> String {
+    let mut s = String::from("| protocol | records | windows |");
+    for m in METHODS {
+        let _ = write!(s, " {m}: windows | {m}: records |");
+    }
+    s.push_str("\n|---|---:|---:|");
+    s.push_str(&"---:|---:|".repeat(METHODS.len()));
+    s.push('\n');
+    for p in protocols {
+        let idx: Vec<usize> = (0..cases.len())
+            .filter(|&i| cases[i].protocol == *p)
+            .collect();
+        let n_windows: usize = idx.iter().map(|&i| scored[i].envelope.len()).sum();
+        let _ = write!(s, "| `{p}` | {} | {n_windows} |", idx.len());
+        for m in 0..METHODS.len() {
+            if idx.iter().any(|&i| scored[i].types(m).is_none()) {
+                s.push_str(" — | — |");
+                continue;
+            }
+            let (mut right, mut total, mut rec_right) = (0usize, 0usize, 0usize);
+            for &i in &idx {
+                let types = scored[i].types(m).unwrap_or_default();
+                total += types.len();
+                right += types.iter().filter(|t| **t == Some(cases[i].truth)).count();
+                rec_right += usize::from(majority(&types) == Some(cases[i].truth));
+            }
+            let _ = write!(
+                s,
+                " {:.1} % | {rec_right} of {} |",
+                100.0 * right as f64 / total.max(1) as f64,
+                idx.len()
+            );
+        }
+        s.push('\n');
+    }
+    s.push('\n');
+    s
+}
+
+/// Confusion matrices (windows) and per-record majorities of one protocol.
+fn protocol_section(p: &str, cases: &[Case], scored: &[Scored]) -> String {
+    let mut s = format!("## `{p}`\n\n");
+    let idx: Vec<usize> = (0..cases.len())
+        .filter(|&i| cases[i].protocol == p)
+        .collect();
+    for (m, name) in METHODS.iter().enumerate() {
+        if idx.iter().any(|&i| scored[i].types(m).is_none()) {
+            continue;
+        }
+        let mut conf: BTreeMap<(usize, usize), usize> = BTreeMap::new();
+        for &i in &idx {
+            for t in scored[i].types(m).unwrap_or_default().into_iter().flatten() {
+                *conf
+                    .entry((type_index(cases[i].truth), type_index(t)))
+                    .or_default() += 1;
+            }
+        }
+        let _ = writeln!(s, "{name}, windows (rows: truth, columns: diagnosed):\n");
+        s.push_str("| truth |");
+        for t in FaultType::ALL {
+            let _ = write!(s, " {} |", t.name());
+        }
+        s.push_str("\n|---|");
+        s.push_str(&"---:|".repeat(5));
+        s.push('\n');
+        for truth in FaultType::ALL {
+            let ti = type_index(truth);
+            if !conf.keys().any(|k| k.0 == ti) {
+                continue;
+            }
+            let _ = write!(s, "| {} |", truth.name());
+            for j in 0..5 {
+                let _ = write!(s, " {} |", conf.get(&(ti, j)).unwrap_or(&0));
+            }
+            s.push('\n');
+        }
+        s.push('\n');
+    }
+    s.push_str("| record | truth | physics (windows) | confidence | severity, dB | envelope rule | DS-STGAT | WDCNN |\n|---|---|---|---:|---:|---|---|---|\n");
+    for &i in &idx {
+        let c = &cases[i];
+        let sc = &scored[i];
+        let Some(r) = summarize_record(&sc.physics) else {
+            continue;
+        };
+        let total: usize = r.counts.iter().sum();
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} ({} of {total}) | {:.2} | {:.1} ± {:.1} | {} | {} | {} |",
+            c.record,
+            c.truth.name(),
+            r.fault.name(),
+            r.counts[type_index(r.fault)],
+            r.confidence,
+            r.severity.impact_to_background_db,
+            r.severity.uncertainty_db,
+            record_type(sc, 1),
+            record_type(sc, 2),
+            record_type(sc, 3),
+        );
+    }
+    s.push('\n');
+    s
+}
+
+/// The majority type of method `m` on a record, `—` where it was not scored.
+fn record_type(sc: &Scored, m: usize) -> &'static str {
+    sc.types(m)
+        .and_then(|t| majority(&t))
+        .map_or("—", FaultType::name)
+}
+
+/// Severity (the true family's, median over the record's windows) against the true
+/// size, per group of one rig, type and condition.
+fn severity_section(cases: &[Case], scored: &[Scored]) -> String {
+    let mut s = String::from(
+        "## Severity against the true defect size\n\n\
+         The true family's impact-to-background ratio (median over the record's \
+         windows), ranked against the stated size inside each group of one rig, fault \
+         type and operating condition (Spearman's ρ; 1 = severity grows with size).\n\n\
+         | group | sizes | severity, dB | ρ |\n|---|---|---|---:|\n",
+    );
+    let mut groups: BTreeMap<&str, Vec<(f32, &'static str, f32)>> = BTreeMap::new();
+    for (c, sc) in cases.iter().zip(scored) {
+        let Some((size, unit)) = c.size else { continue };
+        let family = match c.truth {
+            FaultType::OuterRace => 0,
+            FaultType::InnerRace => 1,
+            FaultType::Ball => 2,
+            _ => continue,
+        };
+        let mut v: Vec<f32> = sc
+            .physics
+            .iter()
+            .filter_map(|d| d.as_ref().ok())
+            .map(|d| d.evidence.lines[family].impact_to_background_db)
+            .collect();
+        v.sort_by(f32::total_cmp);
+        if let Some(&m) = v.get(v.len() / 2) {
+            groups.entry(&c.group).or_default().push((size, unit, m));
+        }
+    }
+    let mut rhos = Vec::new();
+    for (g, mut v) in groups {
+        v.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let sizes: Vec<f32> = v.iter().map(|x| x.0).collect();
+        let sev: Vec<f32> = v.iter().map(|x| x.2).collect();
+        let rho = spearman(&sizes, &sev);
+        if let Some(r) = rho {
+            rhos.push(r);
+        }
+        let _ = writeln!(
+            s,
+            "| {g} | {} | {} | {} |",
+            v.iter()
+                .map(|x| format!("{}{}", x.0, x.1))
+                .collect::<Vec<_>>()
+                .join(", "),
+            sev.iter()
+                .map(|x| format!("{x:.1}"))
+                .collect::<Vec<_>>()
+                .join(", "),
+            rho.map_or("—".into(), |r| format!("{r:.2}"))
+        );
+    }
+    if !rhos.is_empty() {
+        let _ = writeln!(
+            s,
+            "\nMean ρ over {} groups: {:.2}.",
+            rhos.len(),
+            rhos.iter().sum::<f32>() / rhos.len() as f32
+        );
+    }
+    s
+}

@@ -1,0 +1,224 @@
+//! The core's physical diagnosis ([`pumptwin_core::diagnosis`]) over a recording's
+//! windows, and its summary per record: what `predict` reports and the generalization
+//! protocols score.
+//!
+//! ```text
+//! recording at the model rate, one channel → windows (start, WINDOW samples)
+//!   → per window: the stretch of SEGMENT samples ending where the window ends (the
+//!     window and the seconds before it; shorter, a power of two ≥ the window, at the
+//!     start of a record) → evidence → decision (type, confidence, severity)
+//!   → record: the majority type over the windows (ties: the first in FaultType::ALL
+//!     order), its share of the windows, the mean confidence of the windows that made
+//!     it, and the severity as the median over those windows with the windows'
+//!     scatter (half the inter-quartile range / √windows) or each window's own
+//!     uncertainty / √windows, the larger
+//! ```
+//!
+//! Why a stretch longer than the window: a window of 2 048 samples at 12 kHz resolves
+//! 5.9 Hz and holds 1.7 revolutions at 600 rpm, where BPFI (54 Hz) and 2·BSF (47 Hz)
+//! of a 6205 bearing lie 1.2 bins apart; an analyst reads envelope spectra of seconds
+//! (≤ 1 Hz resolution) before naming a line, and so does this. The stretch looks
+//! only backward (what an edge device has seen up to the window), never at a later
+//! window, so a window's diagnosis uses no sample of a window after it.
+
+use pumptwin_core::bearing::DefectOrders;
+use pumptwin_core::diagnosis::{
+    decide, window_evidence, Buffers, Diagnosis, FaultType, Severity, Thresholds,
+};
+use pumptwin_core::fft::Complex32;
+
+use crate::recording::Recording;
+
+/// Shaft revolutions of record read for each window's diagnosis by default: the
+/// envelope spectrum then resolves 1/16 of an order at any speed. Chosen on
+/// `cwru-dev` (`pumptwin eval-generalization --segment N`, N = 2 048 … 32 768
+/// samples at 1 730–1 797 rpm; 8 192 was best, the power of two that 11–19
+/// revolutions round up to there, and 16 the whole number of revolutions nearest the middle; see
+/// `docs/evaluation-generalization.md`), and set in revolutions, not samples, so
+/// that a slower machine gets the same resolution in orders.
+pub const DEFAULT_REVOLUTIONS: f32 = 16.0;
+
+/// Samples each window's diagnosis reads: the smallest power of two ≥ `revolutions`
+/// of the shaft at `fs_hz`, and at least `window`.
+pub fn segment_len(fs_hz: f32, shaft_hz: f32, revolutions: f32, window: usize) -> usize {
+    let want = (revolutions * fs_hz / shaft_hz).ceil();
+    // A nonsense speed reads one window; 2^24 samples (23 min at 12 kHz) at most.
+    if !(want.is_finite() && want > 0.0) {
+        return window;
+    }
+    (want.min(16_777_216.0) as usize)
+        .next_power_of_two()
+        .max(window)
+}
+
+/// A window's diagnosis, or why it has none.
+pub type WindowDiagnosis = Result<Diagnosis, pumptwin_core::Error>;
+
+/// The physical diagnosis of every window of `channel` in `rec` starting at `starts`
+/// (each `window` samples), each read over the `segment` samples (a power of two)
+/// ending where it ends, for a bearing of `orders` at `shaft_hz`. `None` when the
+/// recording has no such channel.
+pub fn diagnose_windows(
+    rec: &Recording,
+    channel: &str,
+    starts: &[usize],
+    window: usize,
+    segment: usize,
+    shaft_hz: f32,
+    orders: &DefectOrders,
+    t: &Thresholds,
+) -> Option<Vec<WindowDiagnosis>> {
+    let ch = rec.channel(channel)?;
+    let longest = segment.max(window);
+    let mut spectrum = vec![Complex32::ZERO; longest];
+    let mut scratch = vec![Complex32::ZERO; longest];
+    let mut env = vec![0.0f32; longest];
+    let mut es = vec![0.0f32; longest / 2 + 1];
+    let mut ses = vec![0.0f32; longest / 2 + 1];
+    let mut work = vec![0.0f32; longest / 2 + 1];
+    let mut diagnose = |s: usize| -> WindowDiagnosis {
+        let end = s + window;
+        let Some(own) = ch.samples.get(s..end) else {
+            return Err(pumptwin_core::Error::BufferSize {
+                expected: end,
+                got: ch.samples.len(),
+            });
+        };
+        // The window itself must be diagnosable: a sensor that died (flat) or went
+        // non-finite in it is not read through the seconds before.
+        if own.iter().any(|v| !v.is_finite()) {
+            return Err(pumptwin_core::Error::NonFinite);
+        }
+        if own.iter().all(|&v| v == own[0]) {
+            return Err(pumptwin_core::Error::Degenerate);
+        }
+        // The longest power of two ≤ segment that the record holds before `end`.
+        let mut len = longest;
+        while len > window && len > end {
+            len /= 2;
+        }
+        let x = &ch.samples[end - len..end];
+        let h = len / 2 + 1;
+        let buf = Buffers {
+            spectrum: &mut spectrum[..len],
+            scratch: &mut scratch[..len],
+            env: &mut env[..len],
+            es: &mut es[..h],
+            ses: &mut ses[..h],
+            work: &mut work[..h],
+        };
+        let e = window_evidence(x, rec.fs_hz, shaft_hz, orders, buf)?;
+        Ok(decide(&e, t))
+    };
+    Some(starts.iter().map(|&s| diagnose(s)).collect())
+}
+
+/// A record's diagnosis from its windows'.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RecordDiagnosis {
+    /// The majority type.
+    pub fault: FaultType,
+    /// Windows per type, in [`FaultType::ALL`] order.
+    pub counts: [usize; 5],
+    /// Windows that could not be diagnosed (non-finite samples, a flat sensor, …).
+    pub failed: usize,
+    /// Mean confidence of the windows of the majority type.
+    pub confidence: f32,
+    /// Severity of the majority type's windows (see the module docs).
+    pub severity: Severity,
+}
+
+/// The record's diagnosis; `None` when no window was diagnosed.
+pub fn summarize_record(windows: &[WindowDiagnosis]) -> Option<RecordDiagnosis> {
+    let mut counts = [0usize; 5];
+    let mut failed = 0;
+    for w in windows {
+        match w {
+            Ok(d) => counts[type_index(d.fault)] += 1,
+            Err(_) => failed += 1,
+        }
+    }
+    let best = (0..5).fold(0, |b, i| if counts[i] > counts[b] { i } else { b });
+    if counts[best] == 0 {
+        return None;
+    }
+    let fault = FaultType::ALL[best];
+    let chosen: Vec<&Diagnosis> = windows
+        .iter()
+        .filter_map(|w| w.as_ref().ok())
+        .filter(|d| d.fault == fault)
+        .collect();
+    let n = chosen.len() as f32;
+    let confidence = chosen.iter().map(|d| d.confidence).sum::<f32>() / n;
+    let mut values: Vec<f32> = chosen
+        .iter()
+        .map(|d| d.severity.impact_to_background_db)
+        .collect();
+    values.sort_by(f32::total_cmp);
+    let q = |p: f32| values[((values.len() - 1) as f32 * p).round() as usize];
+    let mut own: Vec<f32> = chosen.iter().map(|d| d.severity.uncertainty_db).collect();
+    own.sort_by(f32::total_cmp);
+    let scatter = 0.5 * (q(0.75) - q(0.25)) / n.sqrt();
+    let own_median = own[own.len() / 2] / n.sqrt();
+    Some(RecordDiagnosis {
+        fault,
+        counts,
+        failed,
+        confidence,
+        severity: Severity {
+            impact_to_background_db: q(0.5),
+            uncertainty_db: scatter.max(own_median),
+        },
+    })
+}
+
+/// Index of `t` in [`FaultType::ALL`].
+pub fn type_index(t: FaultType) -> usize {
+    FaultType::ALL.iter().position(|&x| x == t).unwrap_or(0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::recording::Channel;
+    use pumptwin_core::bearing::BearingGeometry;
+
+    #[test]
+    fn a_missing_channel_a_short_record_and_a_flat_window_are_not_diagnosed() {
+        // 4 096 samples of a chirp, then a flat stretch (a dead sensor).
+        let x: Vec<f32> = (0..7000)
+            .map(|i| {
+                if i < 4096 {
+                    (i as f32 * 0.001 * i as f32).sin()
+                } else {
+                    0.5
+                }
+            })
+            .collect();
+        let rec = Recording {
+            name: "r".into(),
+            fs_hz: 12_000.0,
+            rpm: Some(1797.0),
+            channels: vec![Channel {
+                name: "DE".into(),
+                samples: x,
+            }],
+        };
+        let orders = BearingGeometry::CWRU_6205_DE.orders();
+        let t = Thresholds::DEFAULT;
+        let d = |ch: &str, starts: &[usize]| {
+            diagnose_windows(&rec, ch, starts, 2048, 16_384, 29.95, &orders, &t)
+        };
+        assert!(d("FE", &[0]).is_none());
+        let w = d("DE", &[0, 2048, 4500, 6000]).unwrap();
+        assert!(w[0].is_ok(), "{:?}", w[0]);
+        // Window 1 is read over the 4 096 samples before its end.
+        assert!(w[1].is_ok(), "{:?}", w[1]);
+        assert_eq!(w[2], Err(pumptwin_core::Error::Degenerate));
+        assert!(matches!(w[3], Err(pumptwin_core::Error::BufferSize { .. })));
+        let r = summarize_record(&w).unwrap();
+        assert_eq!(r.failed, 2);
+        assert_eq!(r.counts.iter().sum::<usize>(), 2);
+        assert_eq!(summarize_record(&w[2..]), None);
+    }
+}

@@ -1,0 +1,111 @@
+#!/usr/bin/env python3
+"""Choose the physical diagnosis' thresholds and calibrate its confidence on the
+development protocol only (`cwru-dev` rows of `pumptwin eval-generalization
+--windows-tsv`); no other row is read.
+
+    python3 scripts/diagnosis_thresholds.py WINDOWS.tsv
+
+Rule (pumptwin_core::diagnosis::Thresholds::DEFAULT says why): over the grid
+line_db 8-30 dB x margin_db 1-6 dB x impulsive_sk {0.3 .. 1.5}, keep the settings whose
+typed claims are >= 95 % right; among those within 0.5 point of the best mean recall of
+the four true types, take the most precise, then the largest kurtosis threshold. Then:
+the typed claims' logistic on (lead - margin) with a prior of 5 right and 5 wrong claims
+at the margin; and P(normal | called normal) with the true types weighted equally.
+"""
+import collections
+import csv
+import math
+import sys
+
+FAMILIES = ["outer_race", "inner_race", "ball"]
+
+
+def rows(path):
+    out = []
+    for r in csv.DictReader(open(path), delimiter="\t"):
+        if r["protocol"] != "cwru-dev":
+            continue
+        levels = [float(r["outer_db"]), float(r["inner_db"]), float(r["ball_db"])]
+        out.append((r["truth"], float(r["sk"]), levels))
+    return out
+
+
+def decide(sk, lv, line, margin, impulsive):
+    order = sorted(range(3), key=lambda i: -lv[i])
+    best, lead = lv[order[0]], lv[order[0]] - lv[order[1]]
+    if best >= line and lead >= margin:
+        return FAMILIES[order[0]], lead - margin
+    if best < line and sk < impulsive:
+        return "normal", line - best
+    return "no_clear_signature", 0.0
+
+
+def sweep(data):
+    results = []
+    for line in range(8, 31):
+        for margin in range(1, 7):
+            for impulsive in [0.3, 0.4, 0.5, 0.6, 0.8, 1.0, 1.5]:
+                recall, n = collections.Counter(), collections.Counter()
+                claims = wrong = 0
+                for truth, sk, lv in data:
+                    d, _ = decide(sk, lv, line, margin, impulsive)
+                    n[truth] += 1
+                    recall[truth] += d == truth
+                    if d in FAMILIES:
+                        claims += 1
+                        wrong += d != truth
+                mean_recall = sum(recall[t] / n[t] for t in n) / len(n)
+                precision = 1 - wrong / max(claims, 1)
+                per_type = {t: round(recall[t] / n[t], 3) for t in n}
+                results.append((mean_recall, precision, line, margin, impulsive, per_type))
+    ok = [r for r in results if r[1] >= 0.95]
+    top = max(r[0] for r in ok)
+    near = [r for r in ok if r[0] >= top - 0.005]
+    near.sort(key=lambda r: (-r[1], -r[4]))
+    return near[0]
+
+
+def logistic(points):
+    """Newton's method for P(y) = 1 / (1 + exp(-(a x + b)))."""
+    a = b = 0.0
+    for _ in range(100):
+        g0 = g1 = 0.0
+        h00, h01, h11 = 1e-6, 0.0, 1e-6
+        for x, y in points:
+            p = 1 / (1 + math.exp(-(a * x + b)))
+            w = p * (1 - p)
+            g0 += (y - p) * x
+            g1 += y - p
+            h00 += w * x * x
+            h01 += w * x
+            h11 += w
+        det = h00 * h11 - h01 * h01
+        a += (h11 * g0 - h01 * g1) / det
+        b += (-h01 * g0 + h00 * g1) / det
+    return a, b
+
+
+def main():
+    data = rows(sys.argv[1])
+    mean_recall, precision, line, margin, impulsive, per_type = sweep(data)
+    print(f"line_db {line}, margin_db {margin}, impulsive_sk {impulsive}: mean recall "
+          f"{100 * mean_recall:.1f} %, typed claims {100 * precision:.1f} % right, {per_type}")
+    typed, called_normal, n = [], collections.Counter(), collections.Counter()
+    for truth, sk, lv in data:
+        d, x = decide(sk, lv, line, margin, impulsive)
+        n[truth] += 1
+        if d in FAMILIES:
+            typed.append((x, d == truth))
+        elif d == "normal":
+            called_normal[truth] += 1
+    prior = [(0.0, True)] * 5 + [(0.0, False)] * 5
+    a, b = logistic(typed + prior)
+    print(f"typed_logistic ({a:.3f}, {b:.3f}) from {len(typed)} claims")
+    share = {t: called_normal[t] / n[t] for t in n}
+    p = share.get("normal", 0.0) / max(sum(share.values()), 1e-9)
+    print(f"P(normal | called normal), types weighted equally: {p:.3f} "
+          f"(normal_logistic (0, {math.log(p / (1 - p)):.2f})); shares called normal {share}")
+
+
+if __name__ == "__main__":
+    main()
