@@ -20,7 +20,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use pumptwin_core::bearing::{BearingGeometry, DefectOrders};
-use pumptwin_core::diagnosis::{FaultType, Thresholds};
+use pumptwin_core::diagnosis::{Defect, Evidence, FaultType, Thresholds, Width};
 use pumptwin_core::features::{envelope_spectrum, harmonic_level_db, EnvelopeBand};
 use pumptwin_core::fft::Complex32;
 use pumptwin_core::layout::{HOP, WINDOW};
@@ -347,7 +347,7 @@ fn majority(types: &[Option<FaultType>]) -> Option<FaultType> {
 
 fn windows_tsv(cases: &[Case], scored: &[Scored]) -> String {
     let mut s = String::from(
-        "protocol\trecord\ttruth\twindow\tsk\tband_lo_hz\touter_db\tinner_db\tball_db\touter_sev_db\tinner_sev_db\tball_sev_db\tphysics\tenvelope\tdsstgat\n",
+        "protocol\trecord\ttruth\twindow\tsk\tband_lo_hz\touter_db\tinner_db\tball_db\touter_sev_db\tinner_sev_db\tball_sev_db\techo_ms\techo_prominence\tlobe_ms\tphysics\tenvelope\tdsstgat\n",
     );
     for (c, sc) in cases.iter().zip(scored) {
         for (k, d) in sc.physics.iter().enumerate() {
@@ -355,7 +355,7 @@ fn windows_tsv(cases: &[Case], scored: &[Scored]) -> String {
             let e = &d.evidence;
             let _ = writeln!(
                 s,
-                "{}\t{}\t{}\t{k}\t{:.3}\t{:.0}\t{:.2}\t{:.2}\t{:.2}\t{:.2}\t{:.2}\t{:.2}\t{}\t{}\t{}",
+                "{}\t{}\t{}\t{k}\t{:.3}\t{:.0}\t{:.2}\t{:.2}\t{:.2}\t{:.2}\t{:.2}\t{:.2}\t{:.3}\t{:.4}\t{:.3}\t{}\t{}\t{}",
                 c.protocol,
                 c.record,
                 c.truth.name(),
@@ -367,6 +367,9 @@ fn windows_tsv(cases: &[Case], scored: &[Scored]) -> String {
                 e.lines[0].impact_to_background_db,
                 e.lines[1].impact_to_background_db,
                 e.lines[2].impact_to_background_db,
+                1e3 * e.delay.echo_s,
+                e.delay.prominence,
+                1e3 * e.delay.lobe_s,
                 d.fault.name(),
                 sc.envelope[k].name(),
                 sc.networks[0]
@@ -428,6 +431,20 @@ fn report(args: &GeneralizationArgs, cases: &[Case], scored: &[Scored], seconds:
         }
     }
     s.push_str(&summary_table(&protocols, cases, scored));
+    s.push_str(
+        "Columns: **physics** is `pumptwin_core::diagnosis` (each window read with the \
+         16 shaft revolutions before its end; a window it calls `no_clear_signature` \
+         counts as wrong); **envelope rule** the plain rule (500 Hz – 5 kHz envelope, \
+         the highest of BPFO, BPFI, BSF over the median names the type; it never says \
+         normal); **DS-STGAT** and **WDCNN** the networks' classes mapped to their type \
+         (`IR…` inner race, `OR…` outer race, `B…` ball), each scored only where it \
+         never saw the records: on `fault-size` the models trained on its training \
+         side, on the other rigs the models trained on CWRU (`--model`, `--wdcnn`); \
+         **physics, else DS-STGAT** takes the physics' call where it is decisive \
+         (a typed line or a quiet, lineless window) and the network's type where the \
+         physics sees no clear signature: what `predict` reports as its diagnosis. \
+         Records: the majority of their windows.\n\n",
+    );
     for p in &protocols {
         s.push_str(&protocol_section(p, cases, scored));
     }
@@ -632,66 +649,115 @@ fn record_type(sc: &Scored, m: usize) -> &'static str {
         .map_or("—", FaultType::name)
 }
 
-/// Severity (the true family's, median over the record's windows) against the true
-/// size, per group of one rig, type and condition.
+/// Severity (the true family's impact-to-background ratio and width, medians over
+/// the record's windows) against the true size, per group of one rig, type and
+/// condition.
 fn severity_section(cases: &[Case], scored: &[Scored]) -> String {
     let mut s = String::from(
         "## Severity against the true defect size\n\n\
-         The true family's impact-to-background ratio (median over the record's \
-         windows), ranked against the stated size inside each group of one rig, fault \
-         type and operating condition (Spearman's ρ; 1 = severity grows with size).\n\n\
-         | group | sizes | severity, dB | ρ |\n|---|---|---|---:|\n",
+         For each record of a stated size, the true family's impact-to-background ratio \
+         and width (entry-to-exit delay × the elements' angular speed over the damaged \
+         race; `<` marks an upper bound where the delay hides in the impact's own \
+         ring-down), medians over the record's windows, ranked against the size inside \
+         each group of one rig, fault type and operating condition (Spearman's ρ; 1 = \
+         grows with size).\n\n\
+         | group | sizes | impact/background, dB | ρ | width, ° | ρ |\n\
+         |---|---|---|---:|---|---:|\n",
     );
-    let mut groups: BTreeMap<&str, Vec<(f32, &'static str, f32)>> = BTreeMap::new();
+    let mut groups: BTreeMap<&str, Vec<(f32, &'static str, f32, Width)>> = BTreeMap::new();
     for (c, sc) in cases.iter().zip(scored) {
         let Some((size, unit)) = c.size else { continue };
         let family = match c.truth {
-            FaultType::OuterRace => 0,
-            FaultType::InnerRace => 1,
-            FaultType::Ball => 2,
+            FaultType::OuterRace => Defect::Outer,
+            FaultType::InnerRace => Defect::Inner,
+            FaultType::Ball => Defect::Ball,
             _ => continue,
         };
-        let mut v: Vec<f32> = sc
+        let windows: Vec<&Evidence> = sc
             .physics
             .iter()
             .filter_map(|d| d.as_ref().ok())
-            .map(|d| d.evidence.lines[family].impact_to_background_db)
+            .map(|d| &d.evidence)
+            .collect();
+        let mut v: Vec<f32> = windows
+            .iter()
+            .map(|e| e.line(family).impact_to_background_db)
             .collect();
         v.sort_by(f32::total_cmp);
-        if let Some(&m) = v.get(v.len() / 2) {
-            groups.entry(&c.group).or_default().push((size, unit, m));
+        let widths: Vec<Width> = windows.iter().map(|e| e.width(family)).collect();
+        if let (Some(&m), Some(w)) = (v.get(v.len() / 2), median_width(&widths)) {
+            groups.entry(&c.group).or_default().push((size, unit, m, w));
         }
     }
-    let mut rhos = Vec::new();
+    let (mut rhos, mut rhos_w) = (Vec::new(), Vec::new());
+    let join = |v: Vec<String>| v.join(", ");
     for (g, mut v) in groups {
         v.sort_by(|a, b| a.0.total_cmp(&b.0));
         let sizes: Vec<f32> = v.iter().map(|x| x.0).collect();
         let sev: Vec<f32> = v.iter().map(|x| x.2).collect();
+        let wid: Vec<f32> = v.iter().map(|x| x.3.degrees).collect();
         let rho = spearman(&sizes, &sev);
-        if let Some(r) = rho {
-            rhos.push(r);
-        }
+        // Upper bounds do not rank: ρ of the widths only where every size resolved one.
+        let rho_w = if v.iter().all(|x| !x.3.upper_bound) {
+            spearman(&sizes, &wid)
+        } else {
+            None
+        };
+        rhos.extend(rho);
+        rhos_w.extend(rho_w);
+        let fmt_rho = |r: Option<f32>| r.map_or("—".into(), |r| format!("{r:.2}"));
         let _ = writeln!(
             s,
-            "| {g} | {} | {} | {} |",
-            v.iter()
-                .map(|x| format!("{}{}", x.0, x.1))
-                .collect::<Vec<_>>()
-                .join(", "),
-            sev.iter()
-                .map(|x| format!("{x:.1}"))
-                .collect::<Vec<_>>()
-                .join(", "),
-            rho.map_or("—".into(), |r| format!("{r:.2}"))
+            "| {g} | {} | {} | {} | {} | {} |",
+            join(v.iter().map(|x| format!("{}{}", x.0, x.1)).collect()),
+            join(sev.iter().map(|x| format!("{x:.1}")).collect()),
+            fmt_rho(rho),
+            join(
+                v.iter()
+                    .map(|x| {
+                        let w = x.3;
+                        let mark = if w.upper_bound { "<" } else { "" };
+                        format!("{mark}{:.1} ± {:.1}", w.degrees, w.uncertainty_deg)
+                    })
+                    .collect()
+            ),
+            fmt_rho(rho_w)
         );
     }
-    if !rhos.is_empty() {
-        let _ = writeln!(
-            s,
-            "\nMean ρ over {} groups: {:.2}.",
-            rhos.len(),
-            rhos.iter().sum::<f32>() / rhos.len() as f32
-        );
-    }
+    let mean = |r: &[f32]| r.iter().sum::<f32>() / r.len().max(1) as f32;
+    let _ = writeln!(
+        s,
+        "\nMean ρ: impact/background {:.2} over {} groups; width {} over {} groups \
+         where every size resolved a width.",
+        mean(&rhos),
+        rhos.len(),
+        if rhos_w.is_empty() {
+            "—".to_string()
+        } else {
+            format!("{:.2}", mean(&rhos_w))
+        },
+        rhos_w.len()
+    );
     s
+}
+
+/// The median width over windows: of the resolved ones when at least half resolved
+/// one, else the median upper bound.
+fn median_width(widths: &[Width]) -> Option<Width> {
+    let first = widths.first()?;
+    let mut found: Vec<f32> = widths
+        .iter()
+        .filter(|w| !w.upper_bound)
+        .map(|w| w.degrees)
+        .collect();
+    let upper_bound = 2 * found.len() < widths.len();
+    if upper_bound {
+        found = widths.iter().map(|w| w.degrees).collect();
+    }
+    found.sort_by(f32::total_cmp);
+    Some(Width {
+        degrees: found[found.len() / 2],
+        uncertainty_deg: first.uncertainty_deg,
+        upper_bound,
+    })
 }

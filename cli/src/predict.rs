@@ -104,6 +104,9 @@ pub enum PhysicsWindow {
         severity_db: f32,
         /// Its standard uncertainty, dB.
         severity_uncertainty_db: f32,
+        /// The defect's angular extent from the entry-to-exit delay, for a typed
+        /// claim (`null` otherwise).
+        width: Option<WidthReport>,
         /// The most impulsive band, Hz.
         band_hz: [f32; 2],
         /// Its spectral kurtosis (0 for Gaussian noise).
@@ -127,6 +130,7 @@ impl PhysicsWindow {
                 confidence: d.confidence,
                 severity_db: d.severity.impact_to_background_db,
                 severity_uncertainty_db: d.severity.uncertainty_db,
+                width: d.severity.width.map(WidthReport::of),
                 band_hz: [d.evidence.band_lo_hz, d.evidence.band_hi_hz],
                 spectral_kurtosis: d.evidence.spectral_kurtosis,
                 line_levels_db: d.evidence.lines.map(|l| l.level_db),
@@ -157,7 +161,7 @@ pub struct RecordDiagnosisReport {
     pub physics_failed_windows: usize,
 }
 
-/// A severity with its unit.
+/// A severity with its units.
 #[derive(Debug, Clone, Serialize)]
 pub struct SeverityReport {
     /// Impact power over the resonance band's background power.
@@ -166,6 +170,29 @@ pub struct SeverityReport {
     pub uncertainty_db: f32,
     /// `dB`.
     pub unit: &'static str,
+    /// The defect's angular extent (typed claims by the physics only).
+    pub width: Option<WidthReport>,
+}
+
+/// A defect's angular extent.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct WidthReport {
+    /// Degrees of the damaged race (ball: of its circumference).
+    pub degrees: f32,
+    /// Standard uncertainty, degrees.
+    pub uncertainty_deg: f32,
+    /// The entry-to-exit delay was not resolved: an upper bound.
+    pub upper_bound: bool,
+}
+
+impl WidthReport {
+    fn of(w: pumptwin_core::diagnosis::Width) -> Self {
+        Self {
+            degrees: w.degrees,
+            uncertainty_deg: w.uncertainty_deg,
+            upper_bound: w.upper_bound,
+        }
+    }
 }
 
 /// The report of `predict`.
@@ -576,6 +603,11 @@ fn record_diagnosis(
             impact_to_background_db: r.severity.impact_to_background_db,
             uncertainty_db: r.severity.uncertainty_db,
             unit: "dB",
+            width: if decided_by == "physics" {
+                r.severity.width.map(WidthReport::of)
+            } else {
+                None
+            },
         },
         physics_windows: FaultType::ALL
             .iter()

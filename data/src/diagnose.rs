@@ -23,7 +23,7 @@
 
 use pumptwin_core::bearing::DefectOrders;
 use pumptwin_core::diagnosis::{
-    decide, window_evidence, Buffers, Diagnosis, FaultType, Severity, Thresholds,
+    decide, window_evidence, Buffers, Diagnosis, FaultType, Severity, Thresholds, Width,
 };
 use pumptwin_core::fft::Complex32;
 
@@ -168,7 +168,41 @@ pub fn summarize_record(windows: &[WindowDiagnosis]) -> Option<RecordDiagnosis> 
         severity: Severity {
             impact_to_background_db: q(0.5),
             uncertainty_db: scatter.max(own_median),
+            width: record_width(&chosen),
         },
+    })
+}
+
+/// The record's width from its windows': the median of the resolved widths when at
+/// least half the windows resolved one (uncertainty: half the inter-quartile range
+/// over √windows, at least one sample's worth), else the median upper bound.
+fn record_width(chosen: &[&Diagnosis]) -> Option<Width> {
+    let widths: Vec<Width> = chosen.iter().filter_map(|d| d.severity.width).collect();
+    if widths.is_empty() {
+        return None;
+    }
+    let mut found: Vec<f32> = widths
+        .iter()
+        .filter(|w| !w.upper_bound)
+        .map(|w| w.degrees)
+        .collect();
+    let resolution = widths[0].uncertainty_deg;
+    if 2 * found.len() >= widths.len() {
+        found.sort_by(f32::total_cmp);
+        let q = |p: f32| found[((found.len() - 1) as f32 * p).round() as usize];
+        let spread = 0.5 * (q(0.75) - q(0.25)) / (found.len() as f32).sqrt();
+        return Some(Width {
+            degrees: q(0.5),
+            uncertainty_deg: spread.max(resolution),
+            upper_bound: false,
+        });
+    }
+    let mut bounds: Vec<f32> = widths.iter().map(|w| w.degrees).collect();
+    bounds.sort_by(f32::total_cmp);
+    Some(Width {
+        degrees: bounds[bounds.len() / 2],
+        uncertainty_deg: resolution,
+        upper_bound: true,
     })
 }
 

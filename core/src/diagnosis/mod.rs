@@ -64,6 +64,7 @@
 mod bands;
 mod lines;
 mod types;
+mod width;
 
 pub use bands::{band_envelope_spectra, band_moments, window_spectrum, BandMoments, BandPlan};
 pub use lines::{line_evidence, BandSpectra};
@@ -71,6 +72,7 @@ pub use types::{
     Defect, FaultType, LineEvidence, BAND_LO_HZ, HARMONICS, LINES_PER_BAND, MAX_BANDS, MIN_BAND_HZ,
     SLIP,
 };
+pub use width::{entry_exit_delay, Delay, PROMINENCE};
 
 use crate::bearing::DefectOrders;
 use crate::error::{expect_len, Result};
@@ -88,9 +90,28 @@ pub struct Evidence {
     pub spectral_kurtosis: f32,
     /// Per family, in [`Defect::ALL`] order.
     pub lines: [LineEvidence; 3],
+    /// The entry-to-exit delay of the rolling elements over the defect.
+    pub delay: Delay,
+    /// Per family, the rolling elements' angular speed over the damaged part, rev/s
+    /// (outer race: FTF; inner race: shaft − FTF; ball: BSF): width = delay × this.
+    pub crossing_rates_hz: [f32; 3],
+    /// One sample, s: the delay's resolution.
+    pub delay_resolution_s: f32,
 }
 
 impl Evidence {
+    /// Family `d`'s width from the delay (see `diagnosis::width`).
+    pub fn width(&self, d: Defect) -> Width {
+        let i = Defect::ALL.iter().position(|&x| x == d).unwrap_or(0);
+        let rate = self.crossing_rates_hz.get(i).copied().unwrap_or(0.0);
+        let (seconds, upper_bound) = self.delay.resolved();
+        Width {
+            degrees: 360.0 * seconds * rate,
+            uncertainty_deg: 360.0 * self.delay_resolution_s * rate,
+            upper_bound,
+        }
+    }
+
     /// The family with the highest line level and the one after it.
     pub fn ranked(&self) -> (Defect, Defect) {
         let mut idx = [0usize, 1, 2];
@@ -167,6 +188,20 @@ pub struct Severity {
     pub impact_to_background_db: f32,
     /// Standard uncertainty, dB.
     pub uncertainty_db: f32,
+    /// The defect's angular extent, for a typed claim.
+    pub width: Option<Width>,
+}
+
+/// A defect's angular extent from its entry-to-exit delay
+/// (see `diagnosis::width`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Width {
+    /// Degrees of the damaged race (ball: of the ball's circumference).
+    pub degrees: f32,
+    /// Standard uncertainty (one sample of delay), degrees.
+    pub uncertainty_deg: f32,
+    /// The delay was not resolved: `degrees` is an upper bound.
+    pub upper_bound: bool,
 }
 
 /// The physical diagnosis of one window.
@@ -245,11 +280,23 @@ pub fn window_evidence(
         df: fs_hz / n as f32,
         width_hz: plan.width_hz,
     };
+    let lines = line_evidence(&spectra, shaft_hz, orders, buf.work);
+    let fastest = Defect::ALL
+        .iter()
+        .fold(0.0f32, |m, d| m.max(d.order(orders) * shaft_hz));
+    let delay = entry_exit_delay(buf.es, fs_hz, fastest, buf.scratch)?;
     Ok(Evidence {
         band_lo_hz: band.0,
         band_hi_hz: band.1,
         spectral_kurtosis: sk,
-        lines: line_evidence(&spectra, shaft_hz, orders, buf.work),
+        lines,
+        delay,
+        crossing_rates_hz: [
+            orders.ftf * shaft_hz,
+            (1.0 - orders.ftf) * shaft_hz,
+            orders.bsf * shaft_hz,
+        ],
+        delay_resolution_s: 1.0 / fs_hz,
     })
 }
 
@@ -258,9 +305,10 @@ pub fn decide(evidence: &Evidence, t: &Thresholds) -> Diagnosis {
     let (first, second) = evidence.ranked();
     let best = evidence.line(first);
     let lead = best.level_db - evidence.line(second).level_db;
-    let severity_of = |l: LineEvidence| Severity {
+    let severity_of = |l: LineEvidence, width: Option<Width>| Severity {
         impact_to_background_db: l.impact_to_background_db,
         uncertainty_db: l.uncertainty_db,
+        width,
     };
     let (fault, confidence) = if best.level_db >= t.line_db && lead >= t.margin_db {
         let (a, b) = t.typed_logistic;
@@ -274,10 +322,11 @@ pub fn decide(evidence: &Evidence, t: &Thresholds) -> Diagnosis {
     } else {
         (FaultType::NoClearSignature, 0.0)
     };
+    let typed = fault == first.fault_type();
     Diagnosis {
         fault,
         confidence,
-        severity: severity_of(best),
+        severity: severity_of(best, typed.then(|| evidence.width(first))),
         evidence: *evidence,
     }
 }
