@@ -4,7 +4,8 @@
 //! diagnosis still holds. The same seconds at another rig's rate (25.6 kHz, a
 //! non-integer ratio to the model's 12 kHz), under lower-case column names, and with
 //! a stretch where every sensor is silent: still IR007, the silent windows reported
-//! as `no_signal` and left out of the majority.
+//! as `no_signal` and left out of the majority. The physical diagnosis beside the
+//! class: inner race, decided by the physics.
 
 use std::path::{Path, PathBuf};
 
@@ -46,6 +47,16 @@ fn predict_fixture_with_int8_and_float_models_and_a_channel_subset() {
     ] {
         let r = predict(&fixture, model, &dir.join("p.json"));
         assert_eq!(r["majority_class"], "IR007", "{model}");
+        // The physics reads the inner race's lines on every window, and decides.
+        let d = &r["diagnosis"];
+        assert_eq!(d["fault_type"], "inner_race", "{d}");
+        assert_eq!(d["decided_by"], "physics", "{d}");
+        assert_eq!(d["physics_windows"]["inner_race"], 10, "{d}");
+        assert!(d["confidence"].as_f64().unwrap() > 0.9, "{d}");
+        // A seeded 0.007" hole is far below what the delay resolves: an upper bound.
+        assert_eq!(d["severity"]["width"]["upper_bound"], true, "{d}");
+        assert_eq!(d["severity"]["unit"], "dB");
+        assert_eq!(r["windows"][3]["physics"]["fault_type"], "inner_race");
         assert_eq!(r["windows"].as_array().unwrap().len(), 10);
         // 12 000 samples: the last window starts at 9 216 and ends at 11 264.
         assert_eq!(r["samples_after_last_window"], 736);
