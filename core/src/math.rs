@@ -40,6 +40,10 @@ pub(crate) fn log10f(x: f32) -> f32 {
 pub(crate) fn floor(x: f64) -> f64 {
     libm::floor(x)
 }
+#[inline]
+pub(crate) fn ceil(x: f64) -> f64 {
+    libm::ceil(x)
+}
 
 /// π in f64.
 pub(crate) const PI: f64 = core::f64::consts::PI;

@@ -29,27 +29,7 @@ use pumptwin_core::fft::Complex32;
 
 use crate::recording::Recording;
 
-/// Shaft revolutions of record read for each window's diagnosis by default: the
-/// envelope spectrum then resolves 1/16 of an order at any speed. Chosen on
-/// `cwru-dev` (`pumptwin eval-generalization --segment N`, N = 2 048 … 32 768
-/// samples at 1 730–1 797 rpm; 8 192 was best, the power of two that 11–19
-/// revolutions round up to there, and 16 the whole number of revolutions nearest the middle; see
-/// `docs/evaluation-generalization.md`), and set in revolutions, not samples, so
-/// that a slower machine gets the same resolution in orders.
-pub const DEFAULT_REVOLUTIONS: f32 = 16.0;
-
-/// Samples each window's diagnosis reads: the smallest power of two ≥ `revolutions`
-/// of the shaft at `fs_hz`, and at least `window`.
-pub fn segment_len(fs_hz: f32, shaft_hz: f32, revolutions: f32, window: usize) -> usize {
-    let want = (revolutions * fs_hz / shaft_hz).ceil();
-    // A nonsense speed reads one window; 2^24 samples (23 min at 12 kHz) at most.
-    if !(want.is_finite() && want > 0.0) {
-        return window;
-    }
-    (want.min(16_777_216.0) as usize)
-        .next_power_of_two()
-        .max(window)
-}
+pub use pumptwin_core::diagnosis::{segment_len, DEFAULT_REVOLUTIONS};
 
 /// A window's diagnosis, or why it has none.
 pub type WindowDiagnosis = Result<Diagnosis, pumptwin_core::Error>;

@@ -93,10 +93,14 @@ use crate::dbc::SlowSignals;
 use crate::explain::{nearest_kinematic, Explanation, PEAK_BAND_HZ};
 use crate::ring::SampleRing;
 use crate::sensor_map::{Channel, LayoutError, Machine, SensorMap, MAX_SAMPLES_PER_FRAME};
+use pumptwin_core::diagnosis::{
+    decide, segment_len, window_evidence, Buffers, Diagnosis, Thresholds, DEFAULT_REVOLUTIONS,
+};
 use pumptwin_core::features::{
     feature_index, node_features, peak_frequency, FeatureConfig, FeatureScratch, TimeStats,
     FEATURE_DIM,
 };
+use pumptwin_core::fft::Complex32;
 use pumptwin_core::fir::{FirLowpass, BAND_LIMIT_TAPS, MAX_CUTOFF_FRACTION};
 use pumptwin_core::simulator::BearingParams;
 use pumptwin_core::tracking::{Tracker, TrackerConfig};
@@ -107,6 +111,10 @@ use serde::Serialize;
 pub use pumptwin_core::layout::{HOP, SEGMENTS, WINDOW};
 /// Ring size per channel.
 pub const RING: usize = 2 * WINDOW;
+/// Samples of the monitored bearing's channel (the first) kept for the physical
+/// diagnosis: 16 shaft revolutions down to 352 rpm at 12 kHz (2.7 s); a slower shaft
+/// is read over what this holds.
+pub const HISTORY: usize = 16 * WINDOW;
 const _: () = assert!(RING >= WINDOW + MAX_SAMPLES_PER_FRAME && HOP >= MAX_SAMPLES_PER_FRAME);
 
 /// `env_shaft_db` in a feature row.
@@ -359,6 +367,10 @@ pub struct Window {
     pub tracking: (Option<u64>, Tracking),
     /// Counters as of this window.
     pub health: Health,
+    /// The physical diagnosis of the first channel up to this window
+    /// (`pumptwin_core::diagnosis`): `None` when the channel is missing or broken
+    /// there.
+    pub physics: Option<Result<Diagnosis, pumptwin_core::Error>>,
 }
 
 impl Window {
@@ -442,6 +454,35 @@ struct ChannelState {
     /// Interface of the channel's first frame that named one.
     iface: Option<heapless::String<16>>,
     pending_gap: bool,
+    /// The seconds before the window (first channel only), for the physics.
+    history: Option<Box<SampleRing<HISTORY>>>,
+}
+
+/// Buffers of the physical diagnosis (`pumptwin_core::diagnosis`) over the history.
+#[derive(Debug)]
+struct PhysicsBuffers {
+    samples: Vec<f32>,
+    spectrum: Vec<Complex32>,
+    scratch: Vec<Complex32>,
+    env: Vec<f32>,
+    es: Vec<f32>,
+    ses: Vec<f32>,
+    work: Vec<f32>,
+}
+
+impl PhysicsBuffers {
+    fn new() -> Self {
+        let h = HISTORY / 2 + 1;
+        Self {
+            samples: vec![0.0; HISTORY],
+            spectrum: vec![Complex32::ZERO; HISTORY],
+            scratch: vec![Complex32::ZERO; HISTORY],
+            env: vec![0.0; HISTORY],
+            es: vec![0.0; h],
+            ses: vec![0.0; h],
+            work: vec![0.0; h],
+        }
+    }
 }
 
 /// Caller-owned buffers of the core's transforms, one set for all channels.
@@ -471,6 +512,7 @@ pub struct Pipeline {
     health: Health,
     window: Box<[f32; WINDOW]>,
     scratch: Box<Scratch>,
+    physics: Box<PhysicsBuffers>,
 }
 
 impl Pipeline {
@@ -489,7 +531,8 @@ impl Pipeline {
         let channels = map
             .channels
             .into_iter()
-            .map(|spec| {
+            .enumerate()
+            .map(|(i, spec)| {
                 Ok(ChannelState {
                     spec,
                     fir: Box::new(FirLowpass::new(cutoff, fs)?),
@@ -499,6 +542,7 @@ impl Pipeline {
                     last_ts_us: None,
                     iface: None,
                     pending_gap: false,
+                    history: (i == 0).then(|| Box::new(SampleRing::new())),
                 })
             })
             .collect::<Result<_, pumptwin_core::Error>>()?;
@@ -527,6 +571,7 @@ impl Pipeline {
                 features: FeatureScratch::new(),
                 median: [0.0; WINDOW / 2 + 1],
             }),
+            physics: Box::new(PhysicsBuffers::new()),
         })
     }
 
@@ -784,6 +829,9 @@ impl Pipeline {
                 .fold(self.next_start, u64::max);
             let ch = &mut self.channels[channel];
             ch.ring.restart_at(now);
+            if let Some(h) = ch.history.as_mut() {
+                h.restart_at(now);
+            }
             ch.fir.reset();
             ch.pending_gap = false;
             self.health.realignments += 1;
@@ -795,7 +843,11 @@ impl Pipeline {
         let ch = &mut self.channels[channel];
         let mut gap = std::mem::take(&mut ch.pending_gap);
         for &x in &self.decoded {
-            ch.ring.push(ch.fir.push(x), gap);
+            let y = ch.fir.push(x);
+            ch.ring.push(y, gap);
+            if let Some(h) = ch.history.as_mut() {
+                h.push(y, gap);
+            }
             gap = false;
         }
         while self
@@ -835,6 +887,7 @@ impl Pipeline {
             });
         }
         let explanation = self.explain(&channels);
+        let physics = self.physics(start);
         let mut window = Window {
             index: self.next_index,
             t_s: ts_us as f64 / 1e6,
@@ -845,6 +898,7 @@ impl Pipeline {
             slow: self.slow_values(),
             tracking: self.last_tracking,
             health: Health::default(),
+            physics,
         };
         self.next_start += HOP as u64;
         self.next_index += 1;
@@ -854,6 +908,55 @@ impl Pipeline {
         }
         window.health = self.health;
         window
+    }
+
+    /// The physical diagnosis of the first channel (the monitored bearing) over the
+    /// 16 shaft revolutions ending where the window at `start` ends, or the longest
+    /// stretch of them (a power of two ≥ the window) the history holds without a
+    /// gap; `None` when not even the window itself is whole.
+    fn physics(&mut self, start: u64) -> Option<Result<Diagnosis, pumptwin_core::Error>> {
+        let history = self.channels.first()?.history.as_ref()?;
+        let end = start + WINDOW as u64;
+        let mut len = segment_len(
+            self.cfg.fs_hz,
+            self.cfg.shaft_hz,
+            DEFAULT_REVOLUTIONS,
+            WINDOW,
+        )
+        .min(HISTORY);
+        while len > WINDOW
+            && (end < len as u64
+                || !history.covers(end - len as u64, len)
+                || history.has_gap(end - len as u64, len))
+        {
+            len /= 2;
+        }
+        let from = end.checked_sub(len as u64)?;
+        let b = &mut *self.physics;
+        if !history.covers(from, len) || history.has_gap(from, len) {
+            return None;
+        }
+        history.copy_out(from, &mut b.samples[..len]);
+        let h = len / 2 + 1;
+        let buf = Buffers {
+            spectrum: &mut b.spectrum[..len],
+            scratch: &mut b.scratch[..len],
+            env: &mut b.env[..len],
+            es: &mut b.es[..h],
+            ses: &mut b.ses[..h],
+            work: &mut b.work[..h],
+        };
+        let orders = self.machine.bearing.orders();
+        Some(
+            window_evidence(
+                &b.samples[..len],
+                self.cfg.fs_hz,
+                self.cfg.shaft_hz,
+                &orders,
+                buf,
+            )
+            .map(|e| decide(&e, &Thresholds::DEFAULT)),
+        )
     }
 
     /// The most prominent envelope peak among the computed channels, matched to the

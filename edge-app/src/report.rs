@@ -23,6 +23,14 @@
 //!             | {"window", "status": "skipped" | "failed", "reason"}
 //!                                      the latest on-edge Θ update (eq. 10) and the window
 //!                                      it ran on (an earlier one: it runs after each line)
+//!   "physics": {"fault_type", "confidence", "severity_db", "severity_uncertainty_db",
+//!               "width": {"degrees", "uncertainty_deg", "upper_bound"} | null,
+//!               "band_hz", "spectral_kurtosis", "line_levels_db"}
+//!            | {"error"} | null        the physical diagnosis of the first channel over
+//!                                      the 16 shaft revolutions ending with the window
+//!                                      (`pumptwin_core::diagnosis`; README, "What
+//!                                      `predict` concludes"); null when the channel is
+//!                                      missing or broken in the window
 //!   "diagnosis": …,                    only with a Diagnoser (`--model`)
 //!   "health": {"frames_total", "used", "duplicate", "out_of_sequence", "unknown_id",
 //!              "other_interface", "malformed",
@@ -109,6 +117,7 @@ struct WindowReport<'a> {
     #[serde(skip_serializing_if = "Ordered::is_empty")]
     slow: Ordered<'a, SlowReport<'a>>,
     tracking: serde_json::Value,
+    physics: serde_json::Value,
     #[serde(skip_serializing_if = "Option::is_none")]
     diagnosis: Option<&'a serde_json::Value>,
     health: &'a Health,
@@ -118,6 +127,31 @@ struct WindowReport<'a> {
 struct SlowReport<'a> {
     value: f64,
     unit: &'a str,
+}
+
+/// The physical diagnosis as the line writes it: `null` without one, `{"error"}`
+/// where the window could not be diagnosed.
+fn physics_json(
+    p: Option<&Result<pumptwin_core::diagnosis::Diagnosis, pumptwin_core::Error>>,
+) -> serde_json::Value {
+    match p {
+        None => serde_json::Value::Null,
+        Some(Err(e)) => serde_json::json!({ "error": e.to_string() }),
+        Some(Ok(d)) => serde_json::json!({
+            "fault_type": d.fault.name(),
+            "confidence": d.confidence,
+            "severity_db": d.severity.impact_to_background_db,
+            "severity_uncertainty_db": d.severity.uncertainty_db,
+            "width": d.severity.width.map(|w| serde_json::json!({
+                "degrees": w.degrees,
+                "uncertainty_deg": w.uncertainty_deg,
+                "upper_bound": w.upper_bound,
+            })),
+            "band_hz": [d.evidence.band_lo_hz, d.evidence.band_hi_hz],
+            "spectral_kurtosis": d.evidence.spectral_kurtosis,
+            "line_levels_db": d.evidence.lines.map(|l| l.level_db),
+        }),
+    }
 }
 
 /// The JSON line (without newline) of `window`, with the diagnosis if there is one.
@@ -190,6 +224,7 @@ pub fn window_json(
                 "window": window.tracking.0, "status": "failed", "reason": e.to_string(),
             }),
         },
+        physics: physics_json(window.physics.as_ref()),
         diagnosis,
         health: &window.health,
     };

@@ -149,7 +149,7 @@ impl Thresholds {
     /// The shipped thresholds, chosen on the `cwru-dev` protocol of
     /// `pumptwin eval-generalization` only (CWRU drive end, 0.007" and 0.021" at 0–3 HP
     /// and the normal record: 2 883 windows, each read over the 8 192 samples ending
-    /// with it, `pumptwin_data::diagnose::DEFAULT_REVOLUTIONS`; no 0.014" record, no
+    /// with it, [`DEFAULT_REVOLUTIONS`]; no 0.014" record, no
     /// other rig):
     ///
     /// - `line_db`, `margin_db`, `impulsive_sk`: the grid 8–30 dB × 1–6 dB × 0.3–1.5
@@ -298,6 +298,28 @@ pub fn window_evidence(
         ],
         delay_resolution_s: 1.0 / fs_hz,
     })
+}
+
+/// Shaft revolutions of record read for each window's diagnosis by default: the
+/// envelope spectrum then resolves 1/16 of an order at any speed. Chosen on
+/// `cwru-dev` (`pumptwin eval-generalization --segment N`, N = 2 048 … 32 768
+/// samples at 1 730–1 797 rpm; 8 192 was best, the power of two that 11–19
+/// revolutions round up to there, and 16 the whole number of revolutions nearest the middle; see
+/// `docs/evaluation-generalization.md`), and set in revolutions, not samples, so
+/// that a slower machine gets the same resolution in orders.
+pub const DEFAULT_REVOLUTIONS: f32 = 16.0;
+
+/// Samples each window's diagnosis reads: the smallest power of two ≥ `revolutions`
+/// of the shaft at `fs_hz`, and at least `window`.
+pub fn segment_len(fs_hz: f32, shaft_hz: f32, revolutions: f32, window: usize) -> usize {
+    let want = math::ceil(f64::from(revolutions) * f64::from(fs_hz) / f64::from(shaft_hz));
+    // A nonsense speed reads one window; 2^24 samples (23 min at 12 kHz) at most.
+    if !(want.is_finite() && want > 0.0) {
+        return window;
+    }
+    (want.min(16_777_216.0) as usize)
+        .next_power_of_two()
+        .max(window)
 }
 
 /// The decision on one window's evidence.
