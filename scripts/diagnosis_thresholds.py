@@ -3,7 +3,10 @@
 development protocol only (`cwru-dev` rows of `pumptwin eval-generalization
 --windows-tsv`); no other row is read.
 
-    python3 scripts/diagnosis_thresholds.py WINDOWS.tsv
+    python3 scripts/diagnosis_thresholds.py WINDOWS.tsv [PROTOCOL]
+
+PROTOCOL: `cwru-dev` (default: the shipped thresholds) or `sim-dev` (the randomized
+simulated records of `--sim-records`: the `sim-only` protocol's thresholds).
 
 Rule (pumptwin_core::diagnosis::Thresholds::DEFAULT says why): over the grid
 line_db 8-30 dB x margin_db 1-6 dB x impulsive_sk {0.3 .. 1.5}, keep the settings whose
@@ -20,10 +23,10 @@ import sys
 FAMILIES = ["outer_race", "inner_race", "ball"]
 
 
-def rows(path):
+def rows(path, protocol):
     out = []
     for r in csv.DictReader(open(path), delimiter="\t"):
-        if r["protocol"] != "cwru-dev":
+        if r["protocol"] != protocol:
             continue
         levels = [float(r["outer_db"]), float(r["inner_db"]), float(r["ball_db"])]
         out.append((r["truth"], float(r["sk"]), levels))
@@ -65,12 +68,14 @@ def sweep(data):
     return near[0]
 
 
-def logistic(points):
-    """Newton's method for P(y) = 1 / (1 + exp(-(a x + b)))."""
+def logistic(points, ridge=1.0):
+    """Newton's method for P(y) = 1 / (1 + exp(-(a x + b))), with a Gaussian prior of
+    unit variance on the slope (per dB of lead): without it, claims that are all right
+    separate perfectly and the slope runs off to infinity."""
     a = b = 0.0
     for _ in range(100):
-        g0 = g1 = 0.0
-        h00, h01, h11 = 1e-6, 0.0, 1e-6
+        g0, g1 = -ridge * a, 0.0
+        h00, h01, h11 = ridge, 0.0, 1e-6
         for x, y in points:
             p = 1 / (1 + math.exp(-(a * x + b)))
             w = p * (1 - p)
@@ -86,7 +91,7 @@ def logistic(points):
 
 
 def main():
-    data = rows(sys.argv[1])
+    data = rows(sys.argv[1], sys.argv[2] if len(sys.argv) > 2 else "cwru-dev")
     mean_recall, precision, line, margin, impulsive, per_type = sweep(data)
     print(f"line_db {line}, margin_db {margin}, impulsive_sk {impulsive}: mean recall "
           f"{100 * mean_recall:.1f} %, typed claims {100 * precision:.1f} % right, {per_type}")
@@ -103,8 +108,10 @@ def main():
     print(f"typed_logistic ({a:.3f}, {b:.3f}) from {len(typed)} claims")
     share = {t: called_normal[t] / n[t] for t in n}
     p = share.get("normal", 0.0) / max(sum(share.values()), 1e-9)
+    normal_b = math.log(p / (1 - p))
     print(f"P(normal | called normal), types weighted equally: {p:.3f} "
-          f"(normal_logistic (0, {math.log(p / (1 - p)):.2f})); shares called normal {share}")
+          f"(normal_logistic (0, {normal_b:.2f})); shares called normal {share}")
+    print(f"--sim-thresholds {line},{margin},{impulsive},{a:.3f},{b:.3f},{normal_b:.2f}")
 
 
 if __name__ == "__main__":

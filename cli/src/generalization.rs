@@ -19,8 +19,8 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
-use pumptwin_core::bearing::{BearingGeometry, DefectOrders};
-use pumptwin_core::diagnosis::{Defect, Evidence, FaultType, Thresholds, Width};
+use pumptwin_core::bearing::{BearingGeometry, DefectLocation, DefectOrders};
+use pumptwin_core::diagnosis::{decide, Defect, Evidence, FaultType, Thresholds, Width};
 use pumptwin_core::features::{envelope_spectrum, harmonic_level_db, EnvelopeBand};
 use pumptwin_core::fft::Complex32;
 use pumptwin_core::layout::{HOP, WINDOW};
@@ -61,6 +61,18 @@ pub struct GeneralizationArgs {
     /// Also write every window's evidence and decisions as TSV here.
     #[arg(long)]
     pub windows_tsv: Option<PathBuf>,
+    /// Randomized simulated records (`pumptwin_twin::randomized`) to add as the
+    /// `sim-dev` protocol: where the `sim-only` settings are chosen.
+    #[arg(long, default_value_t = 0)]
+    pub sim_records: u64,
+    /// Seed of the simulated records.
+    #[arg(long, default_value_t = 1)]
+    pub sim_seed: u64,
+    /// Thresholds chosen on `sim-dev` alone (`scripts/diagnosis_thresholds.py
+    /// --protocol sim-dev`): `LINE_DB,MARGIN_DB,IMPULSIVE_SK,TYPED_A,TYPED_B,NORMAL_B`.
+    /// Adds the `sim-only` row: every measured fault record diagnosed with them.
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
+    pub sim_thresholds: Option<Vec<f32>>,
     /// Samples of record (a power of two) each window's physical diagnosis reads: the
     /// window and what came before it (default: `DEFAULT_REVOLUTIONS` of the shaft).
     #[arg(long)]
@@ -68,6 +80,7 @@ pub struct GeneralizationArgs {
 }
 
 /// One record of a protocol, at the model rate.
+#[derive(Clone)]
 struct Case {
     protocol: &'static str,
     record: String,
@@ -107,7 +120,8 @@ type Networks = [Option<crate::predict::LoadedPredictModel>; 2];
 /// Run it.
 pub fn run_generalization(args: &GeneralizationArgs) -> Result<()> {
     let t0 = std::time::Instant::now();
-    let cases = load_cases(&args.data)?;
+    let mut cases = load_cases(&args.data)?;
+    cases.extend(sim_cases(args.sim_records, args.sim_seed)?);
     anyhow::ensure!(
         !cases.is_empty(),
         "no record found under {}",
@@ -122,15 +136,20 @@ pub fn run_generalization(args: &GeneralizationArgs) -> Result<()> {
     let fault_size: Networks = [load(&args.fault_size_model)?, load(&args.fault_size_wdcnn)?];
     let none: Networks = [None, None];
     let thresholds = Thresholds::DEFAULT;
-    let mut scored = Vec::with_capacity(cases.len());
+    let mut scored: Vec<Scored> = Vec::with_capacity(cases.len());
     for c in &cases {
         let networks = match c.protocol {
             "fault-size" => &fault_size,
-            "cwru-dev" => &none,
+            "cwru-dev" | "sim-dev" => &none,
             _ => &cross_rig,
         };
         scored.push(score_case(c, networks, &thresholds, args.segment)?);
         eprintln!("{} {}: done", c.protocol, c.record);
+    }
+    if let Some(v) = &args.sim_thresholds {
+        let (c, s) = sim_only(&cases, &scored, v)?;
+        cases.extend(c);
+        scored.extend(s);
     }
     if let Some(path) = &args.windows_tsv {
         std::fs::write(path, windows_tsv(&cases, &scored))
@@ -140,6 +159,73 @@ pub fn run_generalization(args: &GeneralizationArgs) -> Result<()> {
     std::fs::write(&args.out, text)
         .with_context(|| format!("cannot write {}", args.out.display()))?;
     Ok(())
+}
+
+/// The `sim-only` protocol: every measured fault record, its windows decided with
+/// the thresholds `v` chosen on `sim-dev` alone (their evidence is the same).
+fn sim_only(cases: &[Case], scored: &[Scored], v: &[f32]) -> Result<(Vec<Case>, Vec<Scored>)> {
+    let [line_db, margin_db, impulsive_sk, a, b, normal_b] = v else {
+        anyhow::bail!("--sim-thresholds takes six numbers, got {}", v.len());
+    };
+    let t = Thresholds {
+        line_db: *line_db,
+        margin_db: *margin_db,
+        impulsive_sk: *impulsive_sk,
+        typed_logistic: (*a, *b),
+        normal_logistic: (0.0, *normal_b),
+    };
+    Ok(cases
+        .iter()
+        .zip(scored)
+        .filter(|(c, _)| c.protocol != "sim-dev" && c.truth != FaultType::Normal)
+        .map(|(c, s)| {
+            let case = Case {
+                protocol: "sim-only",
+                size: None,
+                ..c.clone()
+            };
+            let physics = s
+                .physics
+                .iter()
+                .map(|d| {
+                    d.as_ref()
+                        .map(|d| decide(&d.evidence, &t))
+                        .map_err(Clone::clone)
+                })
+                .collect();
+            let scored = Scored {
+                physics,
+                envelope: s.envelope.clone(),
+                networks: [None, None],
+            };
+            (case, scored)
+        })
+        .unzip())
+}
+
+/// `n` randomized simulated records as the `sim-dev` protocol.
+fn sim_cases(n: u64, seed: u64) -> Result<Vec<Case>> {
+    (0..n)
+        .map(|i| {
+            let spec = pumptwin_twin::randomized::random_spec(i, seed)?;
+            let raw = pumptwin_twin::sim::simulate(&spec)?;
+            Ok(Case {
+                protocol: "sim-dev",
+                record: spec.name.clone(),
+                truth: match spec.fault {
+                    None => FaultType::Normal,
+                    Some(DefectLocation::OuterRace) => FaultType::OuterRace,
+                    Some(DefectLocation::InnerRace) => FaultType::InnerRace,
+                    Some(DefectLocation::Ball) => FaultType::Ball,
+                },
+                size: None,
+                group: String::new(),
+                rec: preprocess_to_model_rate(&raw)?,
+                rpm: spec.rpm,
+                orders: spec.bearing.orders(),
+            })
+        })
+        .collect()
 }
 
 fn preprocess_to_model_rate(raw: &Recording) -> Result<Recording> {
@@ -531,6 +617,17 @@ fn command_line(args: &GeneralizationArgs) -> String {
     }
     if let Some(s) = args.segment {
         let _ = write!(c, " --segment {s}");
+    }
+    if args.sim_records > 0 {
+        let _ = write!(
+            c,
+            " --sim-records {} --sim-seed {}",
+            args.sim_records, args.sim_seed
+        );
+    }
+    if let Some(v) = &args.sim_thresholds {
+        let v: Vec<String> = v.iter().map(f32::to_string).collect();
+        let _ = write!(c, " --sim-thresholds {}", v.join(","));
     }
     let _ = write!(c, " --out {}", args.out.display());
     c

@@ -15,6 +15,7 @@
 //! | [`generate`] | records with undeclared effects, for tests |
 //! | [`report`] | `report.json` and the PNG plots |
 //! | [`sim`] | multi-node records from the core's 2-DOF model (DE, FE, BA) |
+//! | [`randomized`] | simulated records with the conditions randomized (the `sim-only` development set) |
 //! | [`plot`] | line plots (PNG) shared with the trainer's figures |
 //!
 //! **Depends on** `pumptwin-core` and `pumptwin-data`. **Invariant:** no burn (the
@@ -28,6 +29,7 @@ pub mod effect;
 pub mod fit;
 pub mod generate;
 pub mod plot;
+pub mod randomized;
 pub mod report;
 pub mod residual;
 pub mod signature;
