@@ -250,10 +250,18 @@ pub fn run_predict(args: &PredictArgs) -> Result<()> {
         rec.len(),
         rec.fs_hz
     );
-    // The physics on the drive-end sensor, each window read with the 16 shaft
-    // revolutions before its end (pumptwin_data::diagnose).
+    // Model-specific normalization, graph and forward.
+    let device = Device::flex();
+    let model = load_model(&args.model, &device)?;
+    // The physics on the drive-end sensor, each window read with the shaft
+    // revolutions before its end (pumptwin_data::diagnose), with the settings an int8
+    // model file ships with (the core's for a burn model).
+    let (thresholds, revolutions) = match &model {
+        PredictModel::Int8(m) => m.file.diagnosis_settings()?,
+        PredictModel::Burn { .. } => (Thresholds::DEFAULT, DEFAULT_REVOLUTIONS),
+    };
     let shaft_hz = rpm / 60.0;
-    let segment = segment_len(rec.fs_hz, shaft_hz, DEFAULT_REVOLUTIONS, WINDOW);
+    let segment = segment_len(rec.fs_hz, shaft_hz, revolutions, WINDOW);
     let physics = diagnose_windows(
         &rec,
         "DE",
@@ -262,11 +270,8 @@ pub fn run_predict(args: &PredictArgs) -> Result<()> {
         segment,
         shaft_hz,
         &bearing.orders(),
-        &Thresholds::DEFAULT,
+        &thresholds,
     );
-    // Model-specific normalization, graph and forward.
-    let device = Device::flex();
-    let model = load_model(&args.model, &device)?;
     let input = Input {
         args,
         fs_hz_input: raw.fs_hz,

@@ -209,11 +209,20 @@ fn main() -> anyhow::Result<()> {
         SpeedArg::Realtime => Speed::Realtime,
     };
     let mut mqtt = start_mqtt(&cli)?;
-    let pipeline = Pipeline::new(map).context("building the signal path")?;
+    let mut pipeline = Pipeline::new(map).context("building the signal path")?;
+    let diagnoser = cli
+        .model
+        .as_deref()
+        .map(|path| load_diagnoser(path, &pipeline))
+        .transpose()?;
+    if let Some(d) = &diagnoser {
+        // The physics decides with the settings the model file ships with.
+        let (thresholds, revolutions) = d.diagnosis_settings();
+        pipeline.set_diagnosis(thresholds, revolutions);
+    }
     let mut gateway = Gateway::new(pipeline, Pacer::new(speed)).with_stop(Arc::clone(&stop));
     let mut encoder = DiagnosisFrameEncoder::new(Vec::new(), Vec::new());
-    if let Some(path) = &cli.model {
-        let diagnoser = load_diagnoser(path, gateway.pipeline())?;
+    if let Some(diagnoser) = diagnoser {
         encoder = DiagnosisFrameEncoder::for_model(&diagnoser);
         gateway = gateway.with_diagnoser(Box::new(diagnoser));
     }

@@ -26,6 +26,7 @@
 
 use std::path::Path;
 
+use pumptwin_core::diagnosis::{Thresholds, DEFAULT_REVOLUTIONS};
 use pumptwin_core::dsstgat::{
     probabilities_into, InferenceModel, InferenceScratch, Output, MODEL_CLASSES, MODEL_INDICATORS,
 };
@@ -148,6 +149,14 @@ impl ModelDiagnoser {
     /// The model's class names.
     pub fn class_names(&self) -> impl Iterator<Item = &str> {
         self.file.class_names().iter().map(|s| s.as_str())
+    }
+
+    /// The physical diagnosis' thresholds and revolutions the model file ships with
+    /// (checked when the file was decoded; the core's own where they would not be).
+    pub fn diagnosis_settings(&self) -> (Thresholds, f32) {
+        self.file
+            .diagnosis_settings()
+            .unwrap_or((Thresholds::DEFAULT, DEFAULT_REVOLUTIONS))
     }
 
     /// The model's sensor names that the sensor map does not name.

@@ -513,6 +513,8 @@ pub struct Pipeline {
     window: Box<[f32; WINDOW]>,
     scratch: Box<Scratch>,
     physics: Box<PhysicsBuffers>,
+    /// The physical diagnosis' thresholds and the shaft revolutions it reads.
+    diagnosis: (Thresholds, f32),
 }
 
 impl Pipeline {
@@ -572,6 +574,7 @@ impl Pipeline {
                 median: [0.0; WINDOW / 2 + 1],
             }),
             physics: Box::new(PhysicsBuffers::new()),
+            diagnosis: (Thresholds::DEFAULT, DEFAULT_REVOLUTIONS),
         })
     }
 
@@ -910,6 +913,12 @@ impl Pipeline {
         window
     }
 
+    /// Decide the physical diagnosis with `thresholds`, each window read over
+    /// `revolutions` of the shaft (a model file's own settings; the core's by default).
+    pub fn set_diagnosis(&mut self, thresholds: Thresholds, revolutions: f32) {
+        self.diagnosis = (thresholds, revolutions);
+    }
+
     /// The physical diagnosis of the first channel (the monitored bearing) over the
     /// 16 shaft revolutions ending where the window at `start` ends, or the longest
     /// stretch of them (a power of two ≥ the window) the history holds without a
@@ -917,13 +926,9 @@ impl Pipeline {
     fn physics(&mut self, start: u64) -> Option<Result<Diagnosis, pumptwin_core::Error>> {
         let history = self.channels.first()?.history.as_ref()?;
         let end = start + WINDOW as u64;
-        let mut len = segment_len(
-            self.cfg.fs_hz,
-            self.cfg.shaft_hz,
-            DEFAULT_REVOLUTIONS,
-            WINDOW,
-        )
-        .min(HISTORY);
+        let (thresholds, revolutions) = self.diagnosis;
+        let mut len =
+            segment_len(self.cfg.fs_hz, self.cfg.shaft_hz, revolutions, WINDOW).min(HISTORY);
         while len > WINDOW
             && (end < len as u64
                 || !history.covers(end - len as u64, len)
@@ -955,7 +960,7 @@ impl Pipeline {
                 &orders,
                 buf,
             )
-            .map(|e| decide(&e, &Thresholds::DEFAULT)),
+            .map(|e| decide(&e, &thresholds)),
         )
     }
 

@@ -710,6 +710,10 @@ fn encode_model_file<const H: usize>(
     file.graph = GraphParts::from_config(&data.graph)?;
     file.physics = (&BearingParams::default_housing()).into();
     file.geometry = (&BearingGeometry::CWRU_6205_DE).into();
+    file.diagnosis = model_file::DiagnosisParts::new(
+        &pumptwin_core::diagnosis::Thresholds::DEFAULT,
+        pumptwin_core::diagnosis::DEFAULT_REVOLUTIONS,
+    );
     let mut buf = vec![0u8; model_file::MAX_ENCODED_LEN];
     let len = model_file::encode(&file, &mut buf).map_err(|e| anyhow::anyhow!("encode: {e}"))?;
     buf.truncate(len);
@@ -864,6 +868,18 @@ fn model_card(
         NODES.join(", ")
     );
     let _ = writeln!(s, "| input | {STEPS} steps × {N_NODES} nodes × {FEATURES} core features per 2048-sample window at 12 kHz (5 kHz band limit, measurement-noise floor subtracted: `core::features::subtract_noise_floor`) |");
+    let t = pumptwin_core::diagnosis::Thresholds::DEFAULT;
+    let _ = writeln!(
+        s,
+        "| physical diagnosis | `core::diagnosis` on the first node over {} shaft revolutions per window: a line ≥ {} dB leading the next family by ≥ {} dB names the type, no line and spectral kurtosis < {} is normal; confidence σ({}·(lead − margin) + {}) for a type, σ({}) for normal (chosen on CWRU 0.007\" and 0.021\" only; `docs/evaluation-generalization.md`) |",
+        pumptwin_core::diagnosis::DEFAULT_REVOLUTIONS,
+        t.line_db,
+        t.margin_db,
+        t.impulsive_sk,
+        t.typed_logistic.0,
+        t.typed_logistic.1,
+        t.normal_logistic.1
+    );
     let g = &data.graph;
     let _ = writeln!(
         s,

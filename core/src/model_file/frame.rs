@@ -17,7 +17,7 @@ use super::parts::ModelFile;
 /// The first 8 bytes of every model file.
 pub const MAGIC: [u8; 8] = *b"PTWINMDL";
 /// The format version this core writes and reads.
-pub const FORMAT_VERSION: u16 = 9;
+pub const FORMAT_VERSION: u16 = 10;
 /// Bytes before the payload: magic, version, payload length.
 pub const HEADER_LEN: usize = 14;
 /// Bytes after the payload: the CRC-32.
@@ -62,7 +62,8 @@ const MAX_PAYLOAD_LEN: usize = 2 * seq_max(TEXT_LEN, 1) // model_name, created
     + seq_max(MAX_INDICATORS, seq_max(NAME_LEN, 1)) + 2 * seq_max(MAX_INDICATORS, 4)
     + linear_max(MAX_INDICATOR_WEIGHTS, MAX_INDICATORS)
     + 7 * 8 // physics
-    + 1 + 3 * 4; // geometry
+    + 1 + 3 * 4 // geometry
+    + 8 * 4; // diagnosis: 8 × f32
 
 /// Upper bound of an encoded model file's length (a buffer this long always fits).
 pub const MAX_ENCODED_LEN: usize = HEADER_LEN + MAX_PAYLOAD_LEN + CRC_LEN;
@@ -446,6 +447,29 @@ mod tests {
     }
 
     #[test]
+    fn diagnosis_settings_are_checked() {
+        let mut m = test_model();
+        let (t, revolutions) = decode(&encode_vec(&m))
+            .unwrap()
+            .diagnosis_settings()
+            .unwrap();
+        assert_eq!(t, crate::diagnosis::Thresholds::DEFAULT);
+        assert_eq!(revolutions, crate::diagnosis::DEFAULT_REVOLUTIONS);
+        // Refused when written (and when read: decoding validates the same way).
+        let mut buf = vec![0u8; MAX_ENCODED_LEN];
+        for bad in [f32::NAN, -1.0, 0.0] {
+            m.diagnosis.line_db = bad;
+            assert!(
+                matches!(encode(&m, &mut buf), Err(Error::ModelValue(_))),
+                "{bad}"
+            );
+        }
+        m.diagnosis.line_db = 17.0;
+        m.diagnosis.revolutions = 0.5;
+        assert!(matches!(encode(&m, &mut buf), Err(Error::ModelValue(_))));
+    }
+
+    #[test]
     fn named_errors() {
         let m = test_model();
         let file = encode_vec(&m);
@@ -455,7 +479,7 @@ mod tests {
         assert_eq!(decode(&f), Err(Error::ModelMagic));
 
         let mut f = file.clone();
-        for old in [1u16, 2, 3, 4, 5, 6, 7, 8, 10] {
+        for old in [1u16, 2, 3, 4, 5, 6, 7, 8, 9, 11] {
             f[8..10].copy_from_slice(&old.to_le_bytes());
             assert_eq!(
                 decode(&f),

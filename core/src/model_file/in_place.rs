@@ -14,8 +14,8 @@ use heapless::{String, Vec};
 use serde::de::{self, Deserialize, DeserializeSeed, Deserializer, SeqAccess, Visitor};
 
 use super::parts::{
-    Dimensions, GatParts, GeometryParts, GraphParts, GruParts, IndicatorParts, ModelFile,
-    NormParts, PhysicsParts, QLinearParts,
+    DiagnosisParts, Dimensions, GatParts, GeometryParts, GraphParts, GruParts, IndicatorParts,
+    ModelFile, NormParts, PhysicsParts, QLinearParts,
 };
 
 /// Deserialize into an existing value (postcard's sequence form of structs).
@@ -156,7 +156,8 @@ assign_in_place!(
     NormParts,
     GraphParts,
     PhysicsParts,
-    GeometryParts
+    GeometryParts,
+    DiagnosisParts
 );
 struct_in_place!(QLinearParts<const W: usize, const CH: usize> {
     input_scale,
@@ -206,4 +207,5 @@ struct_in_place!(ModelFile {
     indicator,
     physics,
     geometry,
+    diagnosis,
 });

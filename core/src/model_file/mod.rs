@@ -6,7 +6,7 @@
 //! | offset | bytes | field | encoding |
 //! |---|---|---|---|
 //! | 0 | 8 | magic [`MAGIC`] = `PTWINMDL` | ASCII |
-//! | 8 | 2 | format version [`FORMAT_VERSION`] = 9 | u16, little-endian |
+//! | 8 | 2 | format version [`FORMAT_VERSION`] = 10 | u16, little-endian |
 //! | 10 | 4 | payload length `L` | u32, little-endian |
 //! | 14 | `L` | payload: a [`ModelFile`] | postcard 1.x |
 //! | 14 + `L` | 4 | CRC-32 of the payload (see [`crc32`]) | u32, little-endian |
@@ -33,6 +33,7 @@
 //! | `indicator` | [`IndicatorParts`] | eq. 13 head (`[K][H_gru]`, `W_f W_c` folded), names, target mean/std |
 //! | `physics` | [`PhysicsParts`] | default [`BearingParams`](crate::simulator::BearingParams) (f64, SI) |
 //! | `geometry` | [`GeometryParts`] | bearing `n`, `d`, `D`, contact angle |
+//! | `diagnosis` | [`DiagnosisParts`] | the physical diagnosis' thresholds, confidence calibration and revolutions read (`crate::diagnosis`) |
 //!
 //! Every int8 layer is a [`QLinearParts`]: input and output scales (f32), per-output-
 //! channel weight scales (f32), i32 biases, and the int8 weights row-major
@@ -139,7 +140,10 @@
 //! version-7 file's head has the wrong width. Version 9: the same payload, but the
 //! logits add the defect-line vote (`crate::dsstgat::LineVote`, built from the class
 //! names and the normalization), so a version-8 file's golden logits and parity
-//! figures are no longer what the network computes from it.
+//! figures are no longer what the network computes from it. Version 10: the physical
+//! diagnosis' settings joined the payload ([`DiagnosisParts`]: its thresholds,
+//! confidence calibration and the shaft revolutions a window is read over), so that
+//! predict and the edge decide as the evaluation did; a version-9 file lacks them.
 //!
 //! # Source files
 //!
@@ -182,8 +186,8 @@ pub use frame::{
     MAX_ENCODED_LEN,
 };
 pub use parts::{
-    indicator_full_name, ClassifierParts, Dimensions, EmbedParts, GatParts, GatProjectParts,
-    GeometryParts, GraphParts, GruMatrixParts, GruParts, IndicatorHeadParts, IndicatorParts,
-    LayerId, LayerView, ModelFile, Name, NormParts, PhysicsParts, PoolScoreParts, QLinearParts,
-    SensorHeadParts, Text, INDICATOR_NAMES,
+    indicator_full_name, ClassifierParts, DiagnosisParts, Dimensions, EmbedParts, GatParts,
+    GatProjectParts, GeometryParts, GraphParts, GruMatrixParts, GruParts, IndicatorHeadParts,
+    IndicatorParts, LayerId, LayerView, ModelFile, Name, NormParts, PhysicsParts, PoolScoreParts,
+    QLinearParts, SensorHeadParts, Text, INDICATOR_NAMES,
 };

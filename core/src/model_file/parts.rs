@@ -6,6 +6,7 @@ use heapless::{String, Vec};
 use serde::{Deserialize, Serialize};
 
 use crate::bearing::BearingGeometry;
+use crate::diagnosis::Thresholds;
 use crate::error::{Error, Result};
 use crate::features::{FeatureNorm, FEATURE_DIM};
 use crate::graph::GraphConfig;
@@ -465,6 +466,57 @@ impl PhysicsParts {
     }
 }
 
+/// The physical diagnosis' settings the model ships with (`crate::diagnosis`):
+/// its thresholds, the calibration of its confidence and the revolutions each window
+/// is read over, so that every reader of the file decides as the evaluation did.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct DiagnosisParts {
+    /// `Thresholds::line_db`, dB.
+    pub line_db: f32,
+    /// `Thresholds::margin_db`, dB.
+    pub margin_db: f32,
+    /// `Thresholds::impulsive_sk`.
+    pub impulsive_sk: f32,
+    /// `Thresholds::typed_logistic`.
+    pub typed_logistic: [f32; 2],
+    /// `Thresholds::normal_logistic`.
+    pub normal_logistic: [f32; 2],
+    /// Shaft revolutions each window is read over.
+    pub revolutions: f32,
+}
+
+impl Default for DiagnosisParts {
+    /// The core's shipped settings (`Thresholds::DEFAULT`, `DEFAULT_REVOLUTIONS`).
+    fn default() -> Self {
+        Self::new(&Thresholds::DEFAULT, crate::diagnosis::DEFAULT_REVOLUTIONS)
+    }
+}
+
+impl DiagnosisParts {
+    /// The settings of `t`, reading `revolutions`.
+    pub fn new(t: &Thresholds, revolutions: f32) -> Self {
+        Self {
+            line_db: t.line_db,
+            margin_db: t.margin_db,
+            impulsive_sk: t.impulsive_sk,
+            typed_logistic: [t.typed_logistic.0, t.typed_logistic.1],
+            normal_logistic: [t.normal_logistic.0, t.normal_logistic.1],
+            revolutions,
+        }
+    }
+
+    /// The stored thresholds (unchecked).
+    pub(super) fn thresholds(self) -> Thresholds {
+        Thresholds {
+            line_db: self.line_db,
+            margin_db: self.margin_db,
+            impulsive_sk: self.impulsive_sk,
+            typed_logistic: (self.typed_logistic[0], self.typed_logistic[1]),
+            normal_logistic: (self.normal_logistic[0], self.normal_logistic[1]),
+        }
+    }
+}
+
 /// Bearing geometry ([`BearingGeometry`]).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct GeometryParts {
@@ -538,6 +590,8 @@ pub struct ModelFile {
     pub physics: PhysicsParts,
     /// Bearing geometry.
     pub geometry: GeometryParts,
+    /// The physical diagnosis' settings.
+    pub diagnosis: DiagnosisParts,
 }
 
 impl ModelFile {

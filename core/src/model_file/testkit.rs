@@ -15,8 +15,8 @@ use crate::rng::Xoshiro128pp;
 use crate::simulator::BearingParams;
 
 use super::parts::{
-    Dimensions, GatParts, GeometryParts, GraphParts, GruParts, IndicatorParts, ModelFile,
-    NormParts, PhysicsParts, QLinearParts,
+    DiagnosisParts, Dimensions, GatParts, GeometryParts, GraphParts, GruParts, IndicatorParts,
+    ModelFile, NormParts, PhysicsParts, QLinearParts,
 };
 
 pub(super) const N: usize = 3;
@@ -182,6 +182,7 @@ pub(super) fn model_from(k: &Kernels) -> ModelFile {
         },
         physics: PhysicsParts::from(&BearingParams::default_housing()),
         geometry: GeometryParts::from(&BearingGeometry::CWRU_6205_DE),
+        diagnosis: DiagnosisParts::default(),
     }
 }
 

@@ -4,6 +4,7 @@
 //! [`ModelFile::bearing_params`], [`ModelFile::bearing_geometry`]).
 
 use crate::bearing::BearingGeometry;
+use crate::diagnosis::Thresholds;
 use crate::error::{Error, Result};
 use crate::features::{FeatureNorm, FEATURE_DIM};
 use crate::graph::GraphConfig;
@@ -231,7 +232,35 @@ impl ModelFile {
         }
         self.bearing_params()?;
         self.bearing_geometry()?;
+        self.diagnosis_settings()?;
         Ok(())
+    }
+
+    /// The physical diagnosis' thresholds and the shaft revolutions each window is
+    /// read over, checked: finite, thresholds > 0 (the margin ≥ 0), revolutions ≥ 1.
+    pub fn diagnosis_settings(&self) -> Result<(Thresholds, f32)> {
+        let d = self.diagnosis;
+        let all = [
+            d.line_db,
+            d.margin_db,
+            d.impulsive_sk,
+            d.typed_logistic[0],
+            d.typed_logistic[1],
+            d.normal_logistic[0],
+            d.normal_logistic[1],
+            d.revolutions,
+        ];
+        if all.iter().any(|v| !v.is_finite())
+            || d.line_db <= 0.0
+            || d.margin_db < 0.0
+            || d.impulsive_sk <= 0.0
+            || d.revolutions < 1.0
+        {
+            return Err(Error::ModelValue(
+                "diagnosis: a setting is not finite, a threshold not > 0 or revolutions < 1",
+            ));
+        }
+        Ok((d.thresholds(), d.revolutions))
     }
 
     /// The checks of [`GraphConfig::validate`] on the stored prior (any `N`).

@@ -40,6 +40,9 @@ fn the_physics_types_other_rigs_it_was_never_tuned_on() {
         fault_size_wdcnn: None,
         out: out.clone(),
         windows_tsv: None,
+        sim_records: 0,
+        sim_seed: 1,
+        sim_thresholds: None,
         segment: None,
     })
     .unwrap();
