@@ -218,8 +218,10 @@ impl<'d> Gateway<'d> {
                 out.write_all(b"\n")?;
                 out.flush()?;
                 self.latency.record(t_frame.elapsed());
-                // Θ tracking runs after the line is out: it never delays a diagnosis.
+                // Θ tracking and the physics run after the line is out: they never
+                // delay a diagnosis.
                 self.pipeline.track_pending();
+                self.pipeline.diagnose_pending();
                 if let Some(m) = &self.metrics {
                     if let Ok(mut m) = m.lock() {
                         m.health = window.health;

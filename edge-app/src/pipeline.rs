@@ -367,10 +367,11 @@ pub struct Window {
     pub tracking: (Option<u64>, Tracking),
     /// Counters as of this window.
     pub health: Health,
-    /// The physical diagnosis of the first channel up to this window
-    /// (`pumptwin_core::diagnosis`): `None` when the channel is missing or broken
-    /// there.
-    pub physics: Option<Result<Diagnosis, pumptwin_core::Error>>,
+    /// The latest physical diagnosis of the first channel (`pumptwin_core::diagnosis`)
+    /// and the window it ran on (an earlier one: it runs after each line,
+    /// [`Pipeline::diagnose_pending`]); `None` when the channel was missing or broken
+    /// in that window, or before the first.
+    pub physics: (Option<u64>, Option<PhysicsResult>),
 }
 
 impl Window {
@@ -515,7 +516,14 @@ pub struct Pipeline {
     physics: Box<PhysicsBuffers>,
     /// The physical diagnosis' thresholds and the shaft revolutions it reads.
     diagnosis: (Thresholds, f32),
+    /// The last window cut, `(index, start)`, waiting for [`Pipeline::track_pending`].
+    physics_pending: Option<(u64, u64)>,
+    /// The latest physical diagnosis and the window it came from.
+    last_physics: (Option<u64>, Option<PhysicsResult>),
 }
+
+/// A window's physical diagnosis, or why the core refused its samples.
+pub type PhysicsResult = Result<Diagnosis, pumptwin_core::Error>;
 
 impl Pipeline {
     /// A pipeline for a validated sensor map.
@@ -575,6 +583,8 @@ impl Pipeline {
             }),
             physics: Box::new(PhysicsBuffers::new()),
             diagnosis: (Thresholds::DEFAULT, DEFAULT_REVOLUTIONS),
+            physics_pending: None,
+            last_physics: (None, None),
         })
     }
 
@@ -645,6 +655,15 @@ impl Pipeline {
             Err(e) => Tracking::Failed(e),
         };
         self.last_tracking = (Some(index), result);
+    }
+
+    /// The physical diagnosis of the last window cut, after its line is out (as Θ
+    /// tracking: a stretch of 16 revolutions costs a dozen transforms of up to 16 384
+    /// points, more than a line's latency budget); the next window reports it.
+    pub fn diagnose_pending(&mut self) {
+        if let Some((index, start)) = self.physics_pending.take() {
+            self.last_physics = (Some(index), self.physics(start));
+        }
     }
 
     /// Latest slow-sensor values (`(role, value, unit)`), for the window output.
@@ -890,7 +909,7 @@ impl Pipeline {
             });
         }
         let explanation = self.explain(&channels);
-        let physics = self.physics(start);
+        self.physics_pending = Some((self.next_index, start));
         let mut window = Window {
             index: self.next_index,
             t_s: ts_us as f64 / 1e6,
@@ -901,7 +920,7 @@ impl Pipeline {
             slow: self.slow_values(),
             tracking: self.last_tracking,
             health: Health::default(),
-            physics,
+            physics: self.last_physics,
         };
         self.next_start += HOP as u64;
         self.next_index += 1;
@@ -923,7 +942,7 @@ impl Pipeline {
     /// 16 shaft revolutions ending where the window at `start` ends, or the longest
     /// stretch of them (a power of two ≥ the window) the history holds without a
     /// gap; `None` when not even the window itself is whole.
-    fn physics(&mut self, start: u64) -> Option<Result<Diagnosis, pumptwin_core::Error>> {
+    fn physics(&mut self, start: u64) -> Option<PhysicsResult> {
         let history = self.channels.first()?.history.as_ref()?;
         let end = start + WINDOW as u64;
         let (thresholds, revolutions) = self.diagnosis;

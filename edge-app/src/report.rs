@@ -23,14 +23,16 @@
 //!             | {"window", "status": "skipped" | "failed", "reason"}
 //!                                      the latest on-edge Θ update (eq. 10) and the window
 //!                                      it ran on (an earlier one: it runs after each line)
-//!   "physics": {"fault_type", "confidence", "severity_db", "severity_uncertainty_db",
+//!   "physics": {"window": n, "fault_type", "confidence", "severity_db",
+//!               "severity_uncertainty_db",
 //!               "width": {"degrees", "uncertainty_deg", "upper_bound"} | null,
 //!               "band_hz", "spectral_kurtosis", "line_levels_db"}
-//!            | {"error"} | null        the physical diagnosis of the first channel over
-//!                                      the 16 shaft revolutions ending with the window
-//!                                      (`pumptwin_core::diagnosis`; README, "What
-//!                                      `predict` concludes"); null when the channel is
-//!                                      missing or broken in the window
+//!            | {"window", "error"} | null   the latest physical diagnosis of the first
+//!                                      channel over the 16 shaft revolutions ending with
+//!                                      window n (an earlier one: it runs after each
+//!                                      line; `pumptwin_core::diagnosis`; README, "What
+//!                                      `predict` concludes"); null before the first or
+//!                                      when the channel was missing or broken there
 //!   "diagnosis": …,                    only with a Diagnoser (`--model`)
 //!   "health": {"frames_total", "used", "duplicate", "out_of_sequence", "unknown_id",
 //!              "other_interface", "malformed",
@@ -44,8 +46,8 @@
 
 use crate::explain::Explanation;
 use crate::pipeline::{
-    ChannelFeatures, ChannelOutcome, Health, Tracking, Window, ENV_BPFI_DB, ENV_BPFO_DB,
-    ENV_BSF_DB, ENV_KURTOSIS, ENV_SHAFT_DB,
+    ChannelFeatures, ChannelOutcome, Health, PhysicsResult, Tracking, Window, ENV_BPFI_DB,
+    ENV_BPFO_DB, ENV_BSF_DB, ENV_KURTOSIS, ENV_SHAFT_DB,
 };
 use serde::ser::{SerializeMap, Serializer};
 use serde::Serialize;
@@ -131,13 +133,12 @@ struct SlowReport<'a> {
 
 /// The physical diagnosis as the line writes it: `null` without one, `{"error"}`
 /// where the window could not be diagnosed.
-fn physics_json(
-    p: Option<&Result<pumptwin_core::diagnosis::Diagnosis, pumptwin_core::Error>>,
-) -> serde_json::Value {
+fn physics_json(window: Option<u64>, p: Option<&PhysicsResult>) -> serde_json::Value {
     match p {
         None => serde_json::Value::Null,
-        Some(Err(e)) => serde_json::json!({ "error": e.to_string() }),
+        Some(Err(e)) => serde_json::json!({ "window": window, "error": e.to_string() }),
         Some(Ok(d)) => serde_json::json!({
+            "window": window,
             "fault_type": d.fault.name(),
             "confidence": d.confidence,
             "severity_db": d.severity.impact_to_background_db,
@@ -224,7 +225,7 @@ pub fn window_json(
                 "window": window.tracking.0, "status": "failed", "reason": e.to_string(),
             }),
         },
-        physics: physics_json(window.physics.as_ref()),
+        physics: physics_json(window.physics.0, window.physics.1.as_ref()),
         diagnosis,
         health: &window.health,
     };

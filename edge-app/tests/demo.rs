@@ -1,7 +1,10 @@
 //! The README's main command: the shipped demo log (1 s from the test side — the last
 //! 30 % — of each 0 HP CWRU record, in the order below) replayed through the shipped
 //! sensor map and int8 model. Every record's majority class over the windows that lie
-//! wholly inside it is the record's label, and most such windows are right.
+//! wholly inside it is the record's label, and most such windows are right. The
+//! physical diagnosis, over the 16 shaft revolutions (8 192 samples) ending with a
+//! window, names the race of every inner- and outer-race record whose stretch lies
+//! wholly inside it.
 
 use std::path::Path;
 use std::process::Command;
@@ -37,8 +40,33 @@ fn demo_log_diagnoses_match_the_records_labels() {
     );
     let mut votes = vec![std::collections::BTreeMap::<String, usize>::new(); SEGMENTS.len()];
     let (mut inside, mut right) = (0, 0);
+    let mut starts = std::collections::BTreeMap::new();
+    let mut physics_checked = 0;
     for line in String::from_utf8(out.stdout).unwrap().lines() {
         let v: serde_json::Value = serde_json::from_str(line).unwrap();
+        starts.insert(
+            v["window"].as_u64().unwrap(),
+            v["start_sample"].as_u64().unwrap(),
+        );
+        // The physics of an earlier window (it runs after each line).
+        if let Some(n) = v["physics"]["window"].as_u64() {
+            let end = starts[&n] + 2048 - FIR_DELAY;
+            let first = end.saturating_sub(8192);
+            let seg = (first / SEGMENT) as usize;
+            let want = match SEGMENTS.get(seg).map(|s| &s[..2]) {
+                Some("IR") => Some("inner_race"),
+                Some("OR") if SEGMENTS[seg] != "OR014" => Some("outer_race"),
+                _ => None,
+            };
+            if let Some(want) = want.filter(|_| end <= (seg as u64 + 1) * SEGMENT) {
+                assert_eq!(
+                    v["physics"]["fault_type"], want,
+                    "{}: {}",
+                    SEGMENTS[seg], v["physics"]
+                );
+                physics_checked += 1;
+            }
+        }
         // The indicators under their full names (the file keeps 16 bytes of each).
         let ind = v["diagnosis"]["indicators"].as_object().unwrap();
         let names: Vec<&str> = ind.keys().map(String::as_str).collect();
@@ -67,5 +95,9 @@ fn demo_log_diagnoses_match_the_records_labels() {
         assert_eq!(best, SEGMENTS[seg], "segment {seg}: {v:?}");
     }
     println!("{right} of {inside} whole-record windows right");
+    assert!(
+        physics_checked >= 10,
+        "{physics_checked} physics windows checked"
+    );
     assert!(right * 10 >= inside * 9, "{right}/{inside}");
 }
