@@ -200,6 +200,49 @@ fn features_graph_window_seconds(noise_compensation: bool) -> f64 {
     secs / reps as f64
 }
 
+/// Seconds per physical diagnosis (`diagnosis::window_evidence` + `decide`) of a
+/// stretch of `n` samples at 12 kHz (an outer-race impact train in noise, 1 797 rpm).
+fn diagnosis_seconds(n: usize) -> f64 {
+    use pumptwin_core::diagnosis::{decide, window_evidence, Buffers, Thresholds};
+    let mut rng = Xoshiro128pp::seed_from_u64(5);
+    let fs = 12_000.0f64;
+    let x: Vec<f32> = (0..n)
+        .map(|k| {
+            let since = (k as f64 / fs) % (1.0 / 107.4);
+            let ring = (-since * 900.0).exp() * (2.0 * std::f64::consts::PI * 3000.0 * since).sin();
+            (ring + 0.3 * rng.normal()) as f32
+        })
+        .collect();
+    let orders = BearingGeometry::CWRU_6205_DE.orders();
+    let mut spectrum = vec![Complex32::ZERO; n];
+    let mut scratch = vec![Complex32::ZERO; n];
+    let mut env = vec![0.0f32; n];
+    let (mut es, mut ses, mut work) = (
+        vec![0.0f32; n / 2 + 1],
+        vec![0.0f32; n / 2 + 1],
+        vec![0.0f32; n / 2 + 1],
+    );
+    let reps = (1 << 17) / n;
+    let secs = best_of(1.0, || {
+        let mut last = 0.0;
+        for _ in 0..reps {
+            let buf = Buffers {
+                spectrum: &mut spectrum,
+                scratch: &mut scratch,
+                env: &mut env,
+                es: &mut es,
+                ses: &mut ses,
+                work: &mut work,
+            };
+            let e =
+                window_evidence(black_box(&x), 12_000.0, 29.95, &orders, buf).expect("evidence");
+            last = decide(&e, &Thresholds::DEFAULT).confidence;
+        }
+        last
+    });
+    secs / reps as f64
+}
+
 /// Seconds per forward FFT of `n` points with each memory walk: `(by twiddle, by
 /// block)` — the stages with 64 twiddles or more walking the buffer once per twiddle
 /// (strided) or block by block with 64 twiddles held; the library blocks from 8192
@@ -265,6 +308,12 @@ fn main() {
         "| the same without the noise-floor compensation | {:.1} us/window |",
         win_raw * 1e6
     );
+    for n in [2048usize, 8192, 16384] {
+        println!(
+            "| physical diagnosis of {n} samples (band search, lines, width) | {:.1} us |",
+            diagnosis_seconds(n) * 1e6
+        );
+    }
     let walks: Vec<(usize, f64, f64)> = [2048usize, 4096, 8192, 32768]
         .iter()
         .map(|&n| {
