@@ -90,7 +90,7 @@ pub struct SimulateArgs {
     #[arg(long, value_enum, default_value = "ir")]
     pub fault: FaultArg,
     /// Shaft speed, rpm.
-    #[arg(long, default_value_t = 1797.0)]
+    #[arg(long, default_value_t = 1797.0, allow_negative_numbers = true)]
     pub rpm: f32,
     /// Duration, s.
     #[arg(long, default_value_t = 2.0)]
@@ -289,10 +289,10 @@ pub struct RecordArgs {
     #[arg(long)]
     pub input: PathBuf,
     /// Sampling rate, Hz (else the file's: a CSV's `# fs_hz=` line before its header, a .mat's MANIFEST.tsv entry).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub fs: Option<f32>,
     /// Shaft speed, rpm (required when the file does not carry it: a .mat's RPM variable, a CSV's `# rpm=` line).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub rpm: Option<f32>,
     /// Bearing: cwru-6205-de, cwru-6203-fe, or n,d,D,angle_deg.
     #[arg(long, default_value = "cwru-6205-de")]

@@ -183,7 +183,7 @@ pub struct EvalArgs {
     /// Also write the DS-STGAT's three parts' logits (network, spectral expert,
     /// kinematic expert), its defect-line vote and node 0's defect lines per test
     /// window, clean and at every SNR of the noise curve, to this JSON file
-    /// ([`ExpertLogits`]; read by `scripts/expert_fusion.py`). Burn DS-STGAT models
+    /// (`ExpertLogits`; read by `scripts/expert_fusion.py`). Burn DS-STGAT models
     /// only.
     #[arg(long)]
     pub experts: Option<PathBuf>,

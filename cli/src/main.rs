@@ -22,7 +22,17 @@ use std::io::Write;
 
 /// Physics-informed bearing fault diagnosis: data, training, evaluation, export.
 #[derive(Debug, Parser)]
-#[command(name = "pumptwin", version, about)]
+#[command(
+    name = "pumptwin",
+    version,
+    about,
+    after_help = "Examples:\n  \
+        pumptwin predict --input 105.mat --model models/dsstgat-cwru-tb.ptm\n  \
+        pumptwin predict --input rec.mat --var bearing.gs --fs 48828 --rpm 1500 \\\n      \
+        --bearing 8,0.235,1.245,0 --model models/dsstgat-cwru-tb.ptm\n  \
+        pumptwin twin loop --input 105.mat --bearing cwru-6205-de --out out/loop\n  \
+        pumptwin eval-generalization --out docs/evaluation-generalization.md"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -116,7 +126,19 @@ fn data_summary(args: &SummaryArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn main() -> anyhow::Result<()> {
+/// A user's error is one message and its causes, never a backtrace whatever
+/// `RUST_BACKTRACE` says (a bug, a panic, keeps its backtrace); exit status 1.
+fn main() -> std::process::ExitCode {
+    match run() {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("{}", pumptwin_edge::ops::error_message("pumptwin", &e));
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+fn run() -> anyhow::Result<()> {
     let cli = Cli::parse();
     let result = match &cli.command {
         Command::Data(DataCmd::Summary(args)) => data_summary(args),
@@ -147,5 +169,45 @@ mod tests {
     #[test]
     fn the_command_line_is_consistent() {
         Cli::command().debug_assert();
+    }
+
+    /// No help text shows a rustdoc link (`` [`NAME`] ``): help is for people.
+    #[test]
+    fn help_texts_hold_no_rustdoc_links() {
+        fn walk(cmd: &mut clap::Command, path: &str) {
+            let help = cmd.render_long_help().to_string();
+            assert!(!help.contains("[`"), "{path} --help: {help}");
+            for sub in cmd.get_subcommands_mut() {
+                let name = format!("{path} {}", sub.get_name());
+                walk(sub, &name);
+            }
+        }
+        walk(&mut Cli::command(), "pumptwin");
+    }
+
+    /// `--rpm -5` is a value (refused later with its reason), not an unknown flag.
+    #[test]
+    fn negative_numbers_parse_as_values() {
+        let cli = Cli::try_parse_from([
+            "pumptwin", "predict", "--input", "x.csv", "--rpm", "-5", "--fs", "-1", "--model",
+            "m.ptm",
+        ])
+        .unwrap();
+        let Command::Predict(args) = cli.command else {
+            panic!("not predict");
+        };
+        assert_eq!(args.record.rpm, Some(-5.0));
+        assert_eq!(args.record.fs, Some(-1.0));
+    }
+
+    /// A user's error: the message and each cause on a line, no backtrace.
+    #[test]
+    fn errors_are_one_message_and_their_causes() {
+        let e = anyhow::anyhow!("No such file").context("cannot read x.csv");
+        let msg = pumptwin_edge::ops::error_message("pumptwin", &e);
+        assert_eq!(
+            msg,
+            "pumptwin: error: cannot read x.csv\n  caused by: No such file"
+        );
     }
 }

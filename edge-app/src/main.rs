@@ -88,7 +88,18 @@ enum SpeedArg {
 /// features, physics explanation, the model's diagnosis and health, one JSON object
 /// per window.
 #[derive(Debug, Parser)]
-#[command(name = "pumptwin-edge", version, about, args_override_self = true)]
+#[command(
+    name = "pumptwin-edge",
+    version,
+    about,
+    args_override_self = true,
+    after_help = "Examples:\n  \
+        pumptwin-edge --replay models/demo.log --sensors models/cwru-sensors.toml \\\n      \
+        --model models/dsstgat-cwru-tb.ptm\n  \
+        pumptwin-edge --can can0 --sensors MAP.toml --model models/dsstgat-cwru-tb.ptm \\\n      \
+        --out diagnoses.jsonl\n  \
+        pumptwin-edge --config /etc/pumptwin/pumptwin-edge.toml"
+)]
 struct Cli {
     /// candump -l log to replay (`-` for standard input).
     #[arg(
@@ -199,7 +210,19 @@ fn parse_cli() -> anyhow::Result<Cli> {
     Ok(Cli::parse_from(args))
 }
 
-fn main() -> anyhow::Result<()> {
+/// A user's error is one message and its causes, never a backtrace whatever
+/// `RUST_BACKTRACE` says (a bug, a panic, keeps its backtrace); exit status 1.
+fn main() -> std::process::ExitCode {
+    match run() {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("{}", pumptwin_edge::ops::error_message("pumptwin-edge", &e));
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+fn run() -> anyhow::Result<()> {
     let cli = parse_cli()?;
     let stop = stop_on_signals()?;
     let map = SensorMap::load(&cli.sensors)?;
@@ -237,6 +260,7 @@ fn main() -> anyhow::Result<()> {
     let result = gateway.run(&mut *source, &mut out, &mut io::stderr());
     out.flush().context("flushing the output")?;
     print_health_and_latency(&gateway);
+    let no_window = gateway.pipeline().why_no_window();
     let publish_failures = gateway.publish_failures;
     drop(gateway);
     if let Some(m) = mqtt {
@@ -245,7 +269,12 @@ fn main() -> anyhow::Result<()> {
     if publish_failures > 0 {
         eprintln!("pumptwin-edge: {publish_failures} diagnosis frames could not be sent");
     }
-    result.map(|_| ()).with_context(|| what)
+    result.map(|_| ()).with_context(|| what.clone())?;
+    // Nothing silent: a run that diagnosed nothing fails and says why.
+    if let Some(why) = no_window {
+        anyhow::bail!("{what}: no window diagnosed: {why}");
+    }
+    Ok(())
 }
 
 /// A flag SIGINT and SIGTERM set: the gateway ends the run between frames.

@@ -24,6 +24,9 @@
 //! `pumptwin_windows_total`, `pumptwin_degraded_windows_total`,
 //! `pumptwin_publish_failures_total` and the window latency quantiles
 //! `pumptwin_window_latency_seconds{quantile="0.5"|"0.99"}`.
+//!
+//! And the message a command line prints for an error ([`error_message`]; the
+//! `pumptwin` binary uses it too).
 
 use std::io::{BufRead, BufReader, Write};
 use std::net::{SocketAddr, TcpListener};
@@ -214,4 +217,16 @@ pub fn serve_metrics(
             }
         })?;
     Ok(local)
+}
+
+/// What `program` prints for a user's error: the error and each cause on a line of its
+/// own, never a backtrace (whatever `RUST_BACKTRACE` says: that is for bugs, and a
+/// panic keeps its own).
+pub fn error_message(program: &str, e: &anyhow::Error) -> String {
+    let mut s = format!("{program}: error: {e}");
+    for cause in e.chain().skip(1) {
+        s.push_str("\n  caused by: ");
+        s.push_str(&cause.to_string());
+    }
+    s
 }

@@ -520,7 +520,13 @@ pub struct Pipeline {
     physics_pending: Option<(u64, u64)>,
     /// The latest physical diagnosis and the window it came from.
     last_physics: (Option<u64>, Option<PhysicsResult>),
+    /// The first [`MAX_UNKNOWN_IDS`] distinct identifiers the sensor map does not
+    /// name, for the message when no frame was usable.
+    unknown_ids: Vec<u32>,
 }
+
+/// Distinct unknown identifiers remembered.
+pub const MAX_UNKNOWN_IDS: usize = 16;
 
 /// A window's physical diagnosis, or why the core refused its samples.
 pub type PhysicsResult = Result<Diagnosis, pumptwin_core::Error>;
@@ -585,6 +591,7 @@ impl Pipeline {
             diagnosis: (Thresholds::DEFAULT, DEFAULT_REVOLUTIONS),
             physics_pending: None,
             last_physics: (None, None),
+            unknown_ids: Vec::new(),
         })
     }
 
@@ -606,6 +613,55 @@ impl Pipeline {
     /// Channel names in sensor-map order.
     pub fn channel_names(&self) -> impl Iterator<Item = &str> {
         self.channels.iter().map(|c| c.spec.name.as_str())
+    }
+
+    /// The sensor map's channel identifiers, in map order.
+    pub fn channel_ids(&self) -> impl Iterator<Item = u32> + '_ {
+        self.channels.iter().map(|c| c.spec.can_id)
+    }
+
+    /// The first distinct identifiers seen that the sensor map does not name.
+    pub fn unknown_ids(&self) -> &[u32] {
+        &self.unknown_ids
+    }
+
+    /// Why a run produced no window, in words (`None` when it produced one): what an
+    /// operator needs to fix the input or the sensor map.
+    pub fn why_no_window(&self) -> Option<String> {
+        let h = &self.health;
+        if h.windows > 0 {
+            return None;
+        }
+        let hex = |ids: &mut dyn Iterator<Item = u32>| {
+            ids.map(|i| format!("0x{i:X}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        Some(if h.frames_total == 0 {
+            format!(
+                "the input held no CAN frame ({} lines were not frames)",
+                h.bad_lines
+            )
+        } else if h.used == 0 && h.unknown_id > 0 {
+            format!(
+                "none of its {} frames has an identifier the sensor map names: seen {}{}, \
+                 the map's {}",
+                h.frames_total,
+                hex(&mut self.unknown_ids.iter().copied()),
+                if self.unknown_ids.len() == MAX_UNKNOWN_IDS {
+                    ", …"
+                } else {
+                    ""
+                },
+                hex(&mut self.channel_ids())
+            )
+        } else {
+            format!(
+                "{} of its {} frames were used, fewer samples than one window \
+                 ({WINDOW} per channel, every channel)",
+                h.used, h.frames_total
+            )
+        })
     }
 
     /// Count a log line that was not a frame.
@@ -704,6 +760,10 @@ impl Pipeline {
             }
             Disposition::UnknownId => {
                 h.unknown_id += 1;
+                if self.unknown_ids.len() < MAX_UNKNOWN_IDS && !self.unknown_ids.contains(&frame.id)
+                {
+                    self.unknown_ids.push(frame.id);
+                }
                 None
             }
             Disposition::OtherInterface { .. } => {

@@ -239,3 +239,46 @@ fn a_model_is_refused_below_its_band_limit() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Nothing silent: an empty log, and a log whose identifiers the sensor map does not
+/// name, end with a non-zero status and say why (the identifiers seen against the
+/// map's); a user's error never prints a backtrace, whatever RUST_BACKTRACE says.
+#[test]
+fn a_run_that_diagnoses_nothing_fails_and_says_why() {
+    let dir = temp_dir("nothing");
+    std::fs::write(dir.join("map.toml"), MAP_DE_FE).unwrap();
+    std::fs::write(dir.join("empty.log"), "").unwrap();
+    let m = map(MAP_DE_FE);
+    let signals = vec![
+        impact_signal(4_096, bpfi_hz(), 1.0, 0.05, 1),
+        impact_signal(4_096, bpfi_hz(), 0.3, 0.05, 2),
+    ];
+    // Every frame moved to an identifier the map does not name.
+    let mut frames = encode(&m, &signals, 0);
+    for f in &mut frames {
+        f.id = 0x7AB;
+    }
+    std::fs::write(dir.join("wrong-ids.log"), log_text(&frames)).unwrap();
+    for (file, why) in [
+        ("empty.log", "the input held no CAN frame"),
+        ("wrong-ids.log", "seen 0x7AB, the map's"),
+    ] {
+        let r = bin()
+            .env("RUST_BACKTRACE", "1")
+            .arg("--replay")
+            .arg(dir.join(file))
+            .arg("--sensors")
+            .arg(dir.join("map.toml"))
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert!(!r.status.success(), "{file}: {err}");
+        assert!(err.contains("no window diagnosed"), "{file}: {err}");
+        assert!(err.contains(why), "{file}: {err}");
+        assert!(
+            !err.contains("stack backtrace") && !err.contains("Stack backtrace"),
+            "{err}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

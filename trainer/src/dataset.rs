@@ -75,10 +75,10 @@ pub const N_DERIVED_NODES: usize = 5;
 /// Which nodes a model sees.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum NodeSet {
-    /// The measured DE, FE, BA channels ([`NODES`]).
+    /// The measured DE, FE, BA channels (`NODES`).
     Measured,
     /// The measured channels plus derived temperature and pressure
-    /// ([`DERIVED_NODES`]); float models only, reported separately.
+    /// (`DERIVED_NODES`); float models only, reported separately.
     Derived,
 }
 
