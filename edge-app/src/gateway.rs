@@ -109,6 +109,10 @@ pub struct Gateway<'d> {
     /// Frame → JSON line latency of every window.
     pub latency: LatencyHistogram,
     metrics: Option<Arc<std::sync::Mutex<crate::ops::Metrics>>>,
+    /// Write lines for people ([`crate::report::window_text`]) instead of JSON.
+    human: bool,
+    /// Windows per diagnosed class and per physical type, for the closing summary.
+    pub tally: crate::report::Tally,
 }
 
 impl std::fmt::Debug for Gateway<'_> {
@@ -136,7 +140,15 @@ impl<'d> Gateway<'d> {
             publish_failures: 0,
             latency: LatencyHistogram::default(),
             metrics: None,
+            human: false,
+            tally: crate::report::Tally::default(),
         }
+    }
+
+    /// Write one line for people per window instead of JSON (a terminal's default).
+    pub fn with_human_output(mut self, human: bool) -> Self {
+        self.human = human;
+        self
     }
 
     /// Add a diagnoser: its output goes into each window's `"diagnosis"`.
@@ -213,7 +225,12 @@ impl<'d> Gateway<'d> {
                     Some(d) => Some(d.diagnose(&window)?),
                     None => None,
                 };
-                let line = window_json(&window, diagnosis.as_ref())?;
+                self.tally.add(&window, diagnosis.as_ref());
+                let line = if self.human {
+                    crate::report::window_text(&window, diagnosis.as_ref())
+                } else {
+                    window_json(&window, diagnosis.as_ref())?
+                };
                 out.write_all(line.as_bytes())?;
                 out.write_all(b"\n")?;
                 out.flush()?;

@@ -69,6 +69,7 @@ use pumptwin_edge::pipeline::Pipeline;
 use pumptwin_edge::report::window_json;
 use pumptwin_edge::sensor_map::SensorMap;
 use std::fs::{File, OpenOptions};
+use std::io::IsTerminal;
 use std::io::{self, BufRead, BufReader, BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
@@ -118,6 +119,10 @@ struct Cli {
     /// Append JSON lines to this file instead of standard output.
     #[arg(long, value_name = "FILE.jsonl")]
     out: Option<PathBuf>,
+    /// JSON lines on standard output even on a terminal (where the default is one
+    /// line for people per window; piped, the output is always JSON lines).
+    #[arg(long)]
+    json: bool,
     /// Replay speed.
     #[arg(long, value_enum, default_value_t = SpeedArg::Max)]
     speed: SpeedArg,
@@ -243,7 +248,11 @@ fn run() -> anyhow::Result<()> {
         let (thresholds, revolutions) = d.diagnosis_settings();
         pipeline.set_diagnosis(thresholds, revolutions);
     }
-    let mut gateway = Gateway::new(pipeline, Pacer::new(speed)).with_stop(Arc::clone(&stop));
+    // People on a terminal, machines everywhere else (as ripgrep does).
+    let human = cli.out.is_none() && !cli.json && io::stdout().is_terminal();
+    let mut gateway = Gateway::new(pipeline, Pacer::new(speed))
+        .with_stop(Arc::clone(&stop))
+        .with_human_output(human);
     let mut encoder = DiagnosisFrameEncoder::new(Vec::new(), Vec::new());
     if let Some(diagnoser) = diagnoser {
         encoder = DiagnosisFrameEncoder::for_model(&diagnoser);
@@ -260,6 +269,7 @@ fn run() -> anyhow::Result<()> {
     let result = gateway.run(&mut *source, &mut out, &mut io::stderr());
     out.flush().context("flushing the output")?;
     print_health_and_latency(&gateway);
+    eprintln!("pumptwin-edge: {}", gateway.tally.summary());
     let no_window = gateway.pipeline().why_no_window();
     let publish_failures = gateway.publish_failures;
     drop(gateway);

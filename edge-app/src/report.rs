@@ -231,3 +231,101 @@ pub fn window_json(
     };
     serde_json::to_string(&report)
 }
+
+/// One window as a line for people: time, window, status, the network's class and
+/// probability, the physics' type, confidence and severity (of the window it ran on).
+///
+/// ```text
+///   12.345 s  #41  ok        IR007 0.97 | physics #40 inner_race 0.99, 1.1 dB, width < 4.9°
+/// ```
+pub fn window_text(window: &Window, diagnosis: Option<&serde_json::Value>) -> String {
+    let status = if window.is_degraded() {
+        "degraded"
+    } else {
+        "ok"
+    };
+    let mut s = format!("{:>10.3} s  #{:<5} {status:<9}", window.t_s, window.index);
+    match diagnosis.and_then(class_and_probability) {
+        Some((class, p)) => s.push_str(&format!(" {class:<7} {p:.2}")),
+        None => s.push_str(" —"),
+    }
+    match (window.physics.0, &window.physics.1) {
+        (Some(n), Some(Ok(d))) => {
+            s.push_str(&format!(
+                " | physics #{n} {} {:.2}, {:.1} dB",
+                d.fault.name(),
+                d.confidence,
+                d.severity.impact_to_background_db
+            ));
+            if let Some(w) = d.severity.width {
+                let mark = if w.upper_bound { "< " } else { "" };
+                s.push_str(&format!(", width {mark}{:.1}°", w.degrees));
+            }
+        }
+        (Some(n), Some(Err(e))) => s.push_str(&format!(" | physics #{n}: {e}")),
+        _ => s.push_str(" | physics —"),
+    }
+    s
+}
+
+/// The class and its confidence in a diagnoser's JSON (`"class"`, `"confidence"`).
+fn class_and_probability(d: &serde_json::Value) -> Option<(String, f64)> {
+    let class = d.get("class")?.as_str()?.to_string();
+    let p = d
+        .get("confidence")
+        .and_then(serde_json::Value::as_f64)
+        .unwrap_or(f64::NAN);
+    Some((class, p))
+}
+
+/// Windows per diagnosed class and per physical type over a run.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Tally {
+    /// The network's class → windows.
+    pub classes: std::collections::BTreeMap<String, u64>,
+    /// The physics' type → windows it was computed for.
+    pub physics: std::collections::BTreeMap<&'static str, u64>,
+}
+
+impl Tally {
+    /// Count `window` (its physics counts once, on the line that reports it).
+    pub fn add(&mut self, window: &Window, diagnosis: Option<&serde_json::Value>) {
+        if let Some((class, _)) = diagnosis.and_then(class_and_probability) {
+            *self.classes.entry(class).or_default() += 1;
+        }
+        if let Some(Ok(d)) = &window.physics.1 {
+            *self.physics.entry(d.fault.name()).or_default() += 1;
+        }
+    }
+
+    /// The closing summary: the majority of each and the counts.
+    pub fn summary(&self) -> String {
+        let list = |m: Vec<(String, u64)>| {
+            let total: u64 = m.iter().map(|(_, n)| n).sum();
+            let mut v = m;
+            v.sort_by_key(|x| std::cmp::Reverse(x.1));
+            let items: Vec<String> = v.iter().map(|(k, n)| format!("{k} {n}")).collect();
+            (total, items.join(", "))
+        };
+        let (nc, classes) = list(self.classes.iter().map(|(k, n)| (k.clone(), *n)).collect());
+        let (np, physics) = list(
+            self.physics
+                .iter()
+                .map(|(k, n)| ((*k).to_string(), *n))
+                .collect(),
+        );
+        format!(
+            "network classes over {nc} windows: {}; physics over {np}: {}",
+            if classes.is_empty() {
+                "—".into()
+            } else {
+                classes
+            },
+            if physics.is_empty() {
+                "—".into()
+            } else {
+                physics
+            }
+        )
+    }
+}

@@ -530,3 +530,44 @@ fn dbc_slow_signals_update_speed_and_report_values() {
     assert!((last["slow"]["rpm"]["value"].as_f64().unwrap() - 1500.0).abs() < 1e-9);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The same BPFI impacts through a gateway writing for people: one line per window
+/// with its status and, from the second window on, the physics of the window before
+/// it (inner race); the tally counts every window's physics once.
+#[test]
+fn human_output_names_the_physics_of_the_window_before() {
+    let n = 24_000;
+    let m = map(MAP_DE_FE);
+    let log = log_text(&encode(&m, &bpfi_signals(n), 0));
+    let mut gateway =
+        Gateway::new(Pipeline::new(m).unwrap(), Pacer::new(Speed::Max)).with_human_output(true);
+    let mut out = Vec::new();
+    gateway
+        .run(
+            &mut CandumpReplay::new(log.as_bytes()),
+            &mut out,
+            &mut std::io::sink(),
+        )
+        .unwrap();
+    let text = String::from_utf8(out).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines.len(), windows_for(n));
+    assert!(
+        lines[0].contains("#0") && lines[0].contains("physics —"),
+        "{}",
+        lines[0]
+    );
+    for (k, l) in lines.iter().enumerate().skip(1) {
+        assert!(l.contains(&format!("physics #{} inner_race", k - 1)), "{l}");
+        assert!(serde_json::from_str::<Value>(l).is_err(), "not JSON: {l}");
+    }
+    assert_eq!(
+        gateway.tally.physics.get("inner_race"),
+        Some(&(lines.len() as u64 - 1))
+    );
+    assert!(
+        gateway.tally.summary().contains("physics over"),
+        "{}",
+        gateway.tally.summary()
+    );
+}
