@@ -16,4 +16,6 @@ pub mod eval;
 pub mod export;
 pub mod generalization;
 pub mod predict;
+pub mod predict_report;
+pub mod predict_text;
 pub mod train;

@@ -23,9 +23,11 @@ use burn::tensor::Device;
 use pumptwin_core::dsstgat::{probabilities_into, Output};
 use pumptwin_core::features::FeatureNorm;
 use pumptwin_core::graph::GraphConfig;
-use serde::Serialize;
 
 use crate::commands::{LoadedRecord, RecordArgs};
+pub use crate::predict_report::{
+    PhysicsWindow, Prediction, RecordDiagnosisReport, SeverityReport, WidthReport, WindowPrediction,
+};
 use pumptwin_core::diagnosis::{FaultType, Thresholds};
 use pumptwin_data::diagnose::{
     diagnose_windows, segment_len, summarize_record, WindowDiagnosis, DEFAULT_REVOLUTIONS,
@@ -72,161 +74,10 @@ pub struct PredictArgs {
     /// Write the JSON report here (default: standard output).
     #[arg(long)]
     pub out: Option<PathBuf>,
-}
-
-/// One window's diagnosis.
-#[derive(Debug, Clone, Serialize)]
-pub struct WindowPrediction {
-    /// Window start in the recording at the model rate, s.
-    pub start_s: f64,
-    /// Predicted class.
-    pub class: String,
-    /// Class probabilities, in the model's class order.
-    pub probabilities: BTreeMap<String, f32>,
-    /// Nodes masked in this window.
-    pub masked_nodes: Vec<String>,
-    /// The physical diagnosis of the drive-end sensor up to this window
-    /// (`pumptwin_core::diagnosis`), or why there is none.
-    pub physics: PhysicsWindow,
-}
-
-/// One window's physical diagnosis as `predict` reports it.
-#[derive(Debug, Clone, Serialize)]
-#[serde(untagged)]
-pub enum PhysicsWindow {
-    /// Diagnosed.
-    Diagnosed {
-        /// `normal`, `inner_race`, `outer_race`, `ball` or `no_clear_signature`.
-        fault_type: &'static str,
-        /// Probability that the type is right (calibrated on the development records).
-        confidence: f32,
-        /// Impact power over the band's background power, dB.
-        severity_db: f32,
-        /// Its standard uncertainty, dB.
-        severity_uncertainty_db: f32,
-        /// The defect's angular extent from the entry-to-exit delay, for a typed
-        /// claim (`null` otherwise).
-        width: Option<WidthReport>,
-        /// The most impulsive band, Hz.
-        band_hz: [f32; 2],
-        /// Its spectral kurtosis (0 for Gaussian noise).
-        spectral_kurtosis: f32,
-        /// Each family's line level over the envelope spectrum's median, dB:
-        /// `[outer_race, inner_race, ball]`.
-        line_levels_db: [f32; 3],
-    },
-    /// Not diagnosed.
-    Failed {
-        /// Why.
-        error: String,
-    },
-}
-
-impl PhysicsWindow {
-    fn of(d: &pumptwin_data::diagnose::WindowDiagnosis) -> Self {
-        match d {
-            Ok(d) => Self::Diagnosed {
-                fault_type: d.fault.name(),
-                confidence: d.confidence,
-                severity_db: d.severity.impact_to_background_db,
-                severity_uncertainty_db: d.severity.uncertainty_db,
-                width: d.severity.width.map(WidthReport::of),
-                band_hz: [d.evidence.band_lo_hz, d.evidence.band_hi_hz],
-                spectral_kurtosis: d.evidence.spectral_kurtosis,
-                line_levels_db: d.evidence.lines.map(|l| l.level_db),
-            },
-            Err(e) => Self::Failed {
-                error: e.to_string(),
-            },
-        }
-    }
-}
-
-/// The record's diagnosis in physical terms: the physics' type where it is decisive
-/// (a typed line or a quiet, lineless signal), else the network's type.
-#[derive(Debug, Clone, Serialize)]
-pub struct RecordDiagnosisReport {
-    /// `normal`, `inner_race`, `outer_race`, `ball` or `no_clear_signature`.
-    pub fault_type: &'static str,
-    /// `physics` or `network`: which decided.
-    pub decided_by: &'static str,
-    /// Probability that the type is right: the physics' mean calibrated confidence
-    /// over its windows of that type, or the network's share of windows of it.
-    pub confidence: f32,
-    /// The physics' severity of the majority type's windows.
-    pub severity: SeverityReport,
-    /// The physics' windows per type.
-    pub physics_windows: BTreeMap<&'static str, usize>,
-    /// Windows the physics could not diagnose (a flat or non-finite sensor).
-    pub physics_failed_windows: usize,
-}
-
-/// A severity with its units.
-#[derive(Debug, Clone, Serialize)]
-pub struct SeverityReport {
-    /// Impact power over the resonance band's background power.
-    pub impact_to_background_db: f32,
-    /// Standard uncertainty.
-    pub uncertainty_db: f32,
-    /// `dB`.
-    pub unit: &'static str,
-    /// The defect's angular extent (typed claims by the physics only).
-    pub width: Option<WidthReport>,
-}
-
-/// A defect's angular extent.
-#[derive(Debug, Clone, Copy, Serialize)]
-pub struct WidthReport {
-    /// Degrees of the damaged race (ball: of its circumference).
-    pub degrees: f32,
-    /// Standard uncertainty, degrees.
-    pub uncertainty_deg: f32,
-    /// The entry-to-exit delay was not resolved: an upper bound.
-    pub upper_bound: bool,
-}
-
-impl WidthReport {
-    fn of(w: pumptwin_core::diagnosis::Width) -> Self {
-        Self {
-            degrees: w.degrees,
-            uncertainty_deg: w.uncertainty_deg,
-            upper_bound: w.upper_bound,
-        }
-    }
-}
-
-/// The report of `predict`.
-#[derive(Debug, Clone, Serialize)]
-pub struct Prediction {
-    /// The recording.
-    pub input: String,
-    /// The model file.
-    pub model: String,
-    /// `dsstgat-int8` or `dsstgat`.
-    pub arch: String,
-    /// The recording's sampling rate, Hz.
-    pub fs_hz_input: f32,
-    /// The model's rate, Hz.
-    pub fs_hz_model: f32,
-    /// Whether the recording was resampled (anti-aliased and decimated).
-    pub resampled: bool,
-    /// Model sensors the recording does not have (masked in every window).
-    pub missing_nodes: Vec<String>,
-    /// Windows with no usable sensor: class [`NO_SIGNAL`], no probabilities, left
-    /// out of the majority.
-    pub no_signal_windows: usize,
-    /// Samples at the model rate after the last whole window (less than a hop: not
-    /// diagnosed, said rather than dropped in silence).
-    pub samples_after_last_window: usize,
-    /// Per window.
-    pub windows: Vec<WindowPrediction>,
-    /// The most frequent class over the diagnosed windows.
-    pub majority_class: String,
-    /// Windows per class.
-    pub class_counts: BTreeMap<String, usize>,
-    /// The diagnosis in physical terms (`null` without a drive-end channel or when
-    /// no window could be diagnosed).
-    pub diagnosis: Option<RecordDiagnosisReport>,
+    /// The JSON report on standard output even on a terminal (where the default is a
+    /// table for people; piped, the output is always JSON).
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Run `pumptwin predict`.
@@ -365,7 +216,12 @@ fn predict_with<const N: usize>(
         class_counts,
         diagnosis,
     };
-    write_report(&report, args.out.as_deref())?;
+    use std::io::IsTerminal;
+    if args.out.is_none() && !args.json && std::io::stdout().is_terminal() {
+        print!("{}", crate::predict_text::table(&report));
+    } else {
+        write_report(&report, args.out.as_deref())?;
+    }
     print_summary(&report);
     Ok(())
 }

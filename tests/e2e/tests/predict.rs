@@ -31,6 +31,7 @@ fn predict_at(input: &Path, fs: f32, model: &str, out: &Path) -> serde_json::Val
         },
         model: root().join(model),
         out: Some(out.to_owned()),
+        json: false,
     })
     .unwrap();
     serde_json::from_str(&std::fs::read_to_string(out).unwrap()).unwrap()

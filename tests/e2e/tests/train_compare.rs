@@ -139,6 +139,7 @@ fn train_eval_predict_compare_on_cwru() {
             },
             model: runs.join("time-block").join(model).join("model.bpk"),
             out: Some(p_out.clone()),
+            json: false,
         })
         .unwrap();
         json(&p_out)
