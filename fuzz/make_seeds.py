@@ -3,7 +3,7 @@
 import os, random, re, struct, zlib
 
 os.chdir(os.path.dirname(os.path.abspath(__file__)))
-for t in ("candump_log", "frame_decode", "sensor_map_toml", "dbc", "model_file", "csv", "mat"):
+for t in ("candump_log", "frame_decode", "sensor_map_toml", "dbc", "model_file", "csv", "mat", "wav"):
     os.makedirs(f"seeds/{t}", exist_ok=True)
 
 
@@ -98,3 +98,17 @@ samples_per_frame = 3
 scale = 0.001
 """)
 open("seeds/dbc/pump.dbc", "w").write(open("seeds/pump.dbc").read())
+
+# WAV: 16-bit mono and 24-bit stereo at 12 kHz (the stdlib's wave writer).
+import math, wave
+for name, ch, width in [("mono16", 1, 2), ("stereo24", 2, 3)]:
+    with wave.open(f"seeds/wav/{name}.wav", "wb") as w:
+        w.setnchannels(ch)
+        w.setsampwidth(width)
+        w.setframerate(12000)
+        frames = b""
+        for i in range(64):
+            for c in range(ch):
+                v = int(0.5 * math.sin(i * 0.3 + c) * (2 ** (8 * width - 1) - 1))
+                frames += v.to_bytes(width, "little", signed=True)
+        w.writeframes(frames)

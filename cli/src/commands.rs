@@ -284,11 +284,11 @@ pub fn plot_record(rec: &Recording, dir: &Path, markers: &[(f32, String)]) -> Re
 /// A recording and what a user knows about it, shared by the commands that read one.
 #[derive(Debug, Clone, clap::Args)]
 pub struct RecordArgs {
-    /// Recording (.mat in CWRU layout — or any layout with --var —, or .csv with a
-    /// header row).
+    /// Recording (.mat in CWRU layout — or any layout with --var —, .csv with a
+    /// header row, or .wav: channels DE, FE, BA in order, the rate from its header).
     #[arg(long)]
     pub input: PathBuf,
-    /// Sampling rate, Hz (else the file's: a CSV's `# fs_hz=` line before its header, a .mat's MANIFEST.tsv entry).
+    /// Sampling rate, Hz (else the file's: a CSV's `# fs_hz=` line before its header, a .mat's MANIFEST.tsv entry, a WAV's header).
     #[arg(long, allow_negative_numbers = true)]
     pub fs: Option<f32>,
     /// Shaft speed, rpm (required when the file does not carry it: a .mat's RPM variable, a CSV's `# rpm=` line).

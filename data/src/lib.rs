@@ -10,6 +10,7 @@
 //! |---|---|
 //! | [`mat`] | MATLAB level-5 `.mat` reader (numeric arrays, structs flattened to `s.field`, char arrays as text) |
 //! | [`csv`] | CSV recordings (header of channel names, one column per channel) |
+//! | [`wav`] | WAV recordings (channels DE, FE, BA, … in order; rate from the header) |
 //! | [`recording`] | [`Recording`]/[`Channel`] and the checks every consumer relies on |
 //! | [`record`] | the CWRU and CSV loaders, [`load_recording`] |
 //! | [`entry`] | a manifest entry → its recording (checksum, file number, rate) |
@@ -47,6 +48,7 @@ pub mod rig_summary;
 pub mod summary;
 #[cfg(test)]
 mod test_support;
+pub mod wav;
 pub mod windows;
 
 pub use datasets::{read_dataset_manifest, DatasetEntry, DatasetError, DatasetFault};

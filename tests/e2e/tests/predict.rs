@@ -177,3 +177,60 @@ fn predict_at_another_rate_under_other_names_and_with_a_silent_stretch() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The same seconds as a WAV file written by another tool (hound's writer, 32-bit float,
+/// channels DE, FE, BA in order, the rate in the header): the same diagnosis as the
+/// CSV, the network's class and the physics' type alike.
+#[test]
+fn a_wav_of_the_fixture_gives_the_csv_diagnosis() {
+    let dir = std::env::temp_dir().join(format!("pumptwin-wav-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let cols = fixture_columns();
+    let wav = dir.join("cwru105_1s.wav");
+    let spec = hound::WavSpec {
+        channels: 3,
+        sample_rate: 12_000,
+        bits_per_sample: 32,
+        sample_format: hound::SampleFormat::Float,
+    };
+    let mut w = hound::WavWriter::create(&wav, spec).unwrap();
+    for k in 0..cols[0].len() {
+        for c in &cols {
+            w.write_sample(c[k] as f32).unwrap();
+        }
+    }
+    w.finalize().unwrap();
+    let model = "models/dsstgat-cwru-tb.ptm";
+    let csv = predict(
+        &root().join("tests/data/cwru105_1s.csv"),
+        model,
+        &dir.join("c.json"),
+    );
+    let from_wav = run(&wav, model, &dir.join("w.json"));
+    assert_eq!(from_wav["majority_class"], csv["majority_class"]);
+    assert_eq!(
+        from_wav["diagnosis"]["fault_type"],
+        csv["diagnosis"]["fault_type"]
+    );
+    assert_eq!(from_wav["diagnosis"]["fault_type"], "inner_race");
+    assert_eq!(from_wav["windows"].as_array().unwrap().len(), 10);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `predict` on a file that states its own rate (no --fs).
+fn run(input: &Path, model: &str, out: &Path) -> serde_json::Value {
+    run_predict(&PredictArgs {
+        record: RecordArgs {
+            input: input.to_owned(),
+            fs: None,
+            rpm: Some(1797.0),
+            bearing: "cwru-6205-de".into(),
+            var: Vec::new(),
+        },
+        model: root().join(model),
+        out: Some(out.to_owned()),
+        json: false,
+    })
+    .unwrap();
+    serde_json::from_str(&std::fs::read_to_string(out).unwrap()).unwrap()
+}
