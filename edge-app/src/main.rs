@@ -218,13 +218,7 @@ fn parse_cli() -> anyhow::Result<Cli> {
 /// A user's error is one message and its causes, never a backtrace whatever
 /// `RUST_BACKTRACE` says (a bug, a panic, keeps its backtrace); exit status 1.
 fn main() -> std::process::ExitCode {
-    match run() {
-        Ok(()) => std::process::ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("{}", pumptwin_edge::ops::error_message("pumptwin-edge", &e));
-            std::process::ExitCode::FAILURE
-        }
-    }
+    pumptwin_edge::ops::exit_status("pumptwin-edge", run())
 }
 
 fn run() -> anyhow::Result<()> {

@@ -230,3 +230,15 @@ pub fn error_message(program: &str, e: &anyhow::Error) -> String {
     }
     s
 }
+
+/// The exit status of a command line's run: success, or the error printed as
+/// [`error_message`] and status 1.
+pub fn exit_status(program: &str, result: anyhow::Result<()>) -> std::process::ExitCode {
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("{}", error_message(program, &e));
+            std::process::ExitCode::FAILURE
+        }
+    }
+}

@@ -406,7 +406,7 @@ mod tests {
         train(N, rate_hz, 0.0, 0.0, a, gain, seed)
     }
 
-    fn evidence(x: &[f32], shaft: f32) -> Evidence {
+    fn try_evidence(x: &[f32], shaft: f32) -> Result<Evidence> {
         let n = x.len();
         let mut spectrum = vec![Complex32::ZERO; n];
         let mut scratch = vec![Complex32::ZERO; n];
@@ -422,7 +422,11 @@ mod tests {
             ses: &mut ses,
             work: &mut work,
         };
-        window_evidence(x, FS, shaft, &BearingGeometry::CWRU_6205_DE.orders(), buf).unwrap()
+        window_evidence(x, FS, shaft, &BearingGeometry::CWRU_6205_DE.orders(), buf)
+    }
+
+    fn evidence(x: &[f32], shaft: f32) -> Evidence {
+        try_evidence(x, shaft).unwrap()
     }
 
     /// An inner-race defect at 600 rpm, its impacts spread 30 % in strength and
@@ -488,40 +492,10 @@ mod tests {
 
     #[test]
     fn bad_input_is_an_error() {
-        let mut spectrum = vec![Complex32::ZERO; N];
-        let mut scratch = vec![Complex32::ZERO; N];
-        let mut env = vec![0.0; N];
-        let mut es = vec![0.0; N / 2 + 1];
-        let mut ses = vec![0.0; N / 2 + 1];
-        let mut work = vec![0.0; N / 2 + 1];
         let mut x = vec![0.0f32; N];
         x[5] = f32::NAN;
-        let orders = BearingGeometry::CWRU_6205_DE.orders();
-        let buf = Buffers {
-            spectrum: &mut spectrum,
-            scratch: &mut scratch,
-            env: &mut env,
-            es: &mut es,
-            ses: &mut ses,
-            work: &mut work,
-        };
-        assert_eq!(
-            window_evidence(&x, FS, 29.95, &orders, buf),
-            Err(Error::NonFinite)
-        );
-        let flat = vec![0.25f32; N];
-        let buf = Buffers {
-            spectrum: &mut spectrum,
-            scratch: &mut scratch,
-            env: &mut env,
-            es: &mut es,
-            ses: &mut ses,
-            work: &mut work,
-        };
-        assert_eq!(
-            window_evidence(&flat, FS, 29.95, &orders, buf),
-            Err(Error::Degenerate)
-        );
+        assert_eq!(try_evidence(&x, 29.95), Err(Error::NonFinite));
+        assert_eq!(try_evidence(&[0.25f32; N], 29.95), Err(Error::Degenerate));
         for name in FaultType::ALL.map(FaultType::name) {
             assert_eq!(FaultType::from_name(name).map(FaultType::name), Some(name));
         }
@@ -556,24 +530,7 @@ mod tests {
         let n = 16_384;
         let orders = BearingGeometry::CWRU_6205_DE.orders();
         for (delay, seed) in [(0.0025f32, 1u64), (0.0035, 2), (0.0056, 3)] {
-            let x = spall(delay, n, seed);
-            let mut spectrum = vec![Complex32::ZERO; n];
-            let mut scratch = vec![Complex32::ZERO; n];
-            let mut env = vec![0.0; n];
-            let (mut es, mut ses, mut work) = (
-                vec![0.0; n / 2 + 1],
-                vec![0.0; n / 2 + 1],
-                vec![0.0; n / 2 + 1],
-            );
-            let buf = Buffers {
-                spectrum: &mut spectrum,
-                scratch: &mut scratch,
-                env: &mut env,
-                es: &mut es,
-                ses: &mut ses,
-                work: &mut work,
-            };
-            let e = window_evidence(&x, FS, 10.0, &orders, buf).unwrap();
+            let e = evidence(&spall(delay, n, seed), 10.0);
             let (seconds, bound) = e.delay.resolved();
             assert!(!bound, "{delay}: {:?}", e.delay);
             assert!((seconds - delay).abs() < 2.0 / FS, "{delay}: {seconds}");
@@ -587,24 +544,7 @@ mod tests {
             assert_eq!(e.width(Defect::Outer), w);
         }
         // One event per element: nothing resolved, an upper bound.
-        let x = spall(0.0, n, 4);
-        let mut spectrum = vec![Complex32::ZERO; n];
-        let mut scratch = vec![Complex32::ZERO; n];
-        let mut env = vec![0.0; n];
-        let (mut es, mut ses, mut work) = (
-            vec![0.0; n / 2 + 1],
-            vec![0.0; n / 2 + 1],
-            vec![0.0; n / 2 + 1],
-        );
-        let buf = Buffers {
-            spectrum: &mut spectrum,
-            scratch: &mut scratch,
-            env: &mut env,
-            es: &mut es,
-            ses: &mut ses,
-            work: &mut work,
-        };
-        let e = window_evidence(&x, FS, 10.0, &orders, buf).unwrap();
+        let e = evidence(&spall(0.0, n, 4), 10.0);
         assert!(e.delay.resolved().1, "{:?}", e.delay);
     }
 }

@@ -21,10 +21,15 @@ fn predict(input: &Path, model: &str, out: &Path) -> serde_json::Value {
 }
 
 fn predict_at(input: &Path, fs: f32, model: &str, out: &Path) -> serde_json::Value {
+    predict_with_rate(input, Some(fs), model, out)
+}
+
+/// `predict` at rate `fs` (`None`: the file's own).
+fn predict_with_rate(input: &Path, fs: Option<f32>, model: &str, out: &Path) -> serde_json::Value {
     run_predict(&PredictArgs {
         record: RecordArgs {
             input: input.to_owned(),
-            fs: Some(fs),
+            fs,
             rpm: Some(1797.0),
             bearing: "cwru-6205-de".into(),
             var: Vec::new(),
@@ -206,7 +211,7 @@ fn a_wav_of_the_fixture_gives_the_csv_diagnosis() {
         model,
         &dir.join("c.json"),
     );
-    let from_wav = run(&wav, model, &dir.join("w.json"));
+    let from_wav = predict_with_rate(&wav, None, model, &dir.join("w.json"));
     assert_eq!(from_wav["majority_class"], csv["majority_class"]);
     assert_eq!(
         from_wav["diagnosis"]["fault_type"],
@@ -215,22 +220,4 @@ fn a_wav_of_the_fixture_gives_the_csv_diagnosis() {
     assert_eq!(from_wav["diagnosis"]["fault_type"], "inner_race");
     assert_eq!(from_wav["windows"].as_array().unwrap().len(), 10);
     let _ = std::fs::remove_dir_all(&dir);
-}
-
-/// `predict` on a file that states its own rate (no --fs).
-fn run(input: &Path, model: &str, out: &Path) -> serde_json::Value {
-    run_predict(&PredictArgs {
-        record: RecordArgs {
-            input: input.to_owned(),
-            fs: None,
-            rpm: Some(1797.0),
-            bearing: "cwru-6205-de".into(),
-            var: Vec::new(),
-        },
-        model: root().join(model),
-        out: Some(out.to_owned()),
-        json: false,
-    })
-    .unwrap();
-    serde_json::from_str(&std::fs::read_to_string(out).unwrap()).unwrap()
 }
