@@ -198,6 +198,7 @@ fn predict_with<const N: usize>(
         window_predictions(&feats, &probs, &classes, &nodes, rec.fs_hz, physics);
     let majority = majority_class(&class_counts);
     let diagnosis = physics.and_then(|p| record_diagnosis(p, &majority, &class_counts));
+    let warnings = warnings(physics, &majority, diagnosis.as_ref());
     let report = Prediction {
         input: args.record.input.display().to_string(),
         model: args.model.display().to_string(),
@@ -215,6 +216,7 @@ fn predict_with<const N: usize>(
         majority_class: majority,
         class_counts,
         diagnosis,
+        warnings,
     };
     use std::io::IsTerminal;
     if args.out.is_none() && !args.json && std::io::stdout().is_terminal() {
@@ -479,6 +481,47 @@ fn record_diagnosis(
     })
 }
 
+/// The warnings of a report (see [`Prediction::warnings`]).
+fn warnings(
+    physics: Option<&[WindowDiagnosis]>,
+    majority: &str,
+    diagnosis: Option<&RecordDiagnosisReport>,
+) -> Vec<String> {
+    let mut w = Vec::new();
+    let Some(physics) = physics else {
+        w.push(
+            "no drive-end (DE) channel: no physical diagnosis, the network's class stands alone"
+                .into(),
+        );
+        return w;
+    };
+    let failed = physics.iter().filter(|d| d.is_err()).count();
+    if 2 * failed > physics.len() {
+        w.push(format!(
+            "the physics could not read {failed} of {} windows (a flat or broken drive-end sensor?)",
+            physics.len()
+        ));
+    }
+    let network = fault_type_of_class(majority);
+    if let (Some(net), Some(d)) = (network, diagnosis) {
+        let by_physics = d.decided_by == "physics";
+        if by_physics && d.fault_type == "normal" && net != FaultType::Normal {
+            w.push(format!(
+                "the network names {majority}, but the drive end shows no defect line and no \
+                 impulsiveness: its class is not supported (a machine, speed or noise outside \
+                 its training conditions?)"
+            ));
+        } else if by_physics && d.fault_type != "normal" && d.fault_type != net.name() {
+            w.push(format!(
+                "the network names {majority} ({}), the physics {}: the physics' lines decide",
+                net.name(),
+                d.fault_type
+            ));
+        }
+    }
+    w
+}
+
 /// The physical type a CWRU class name stands for (`IR…`, `OR…`, `B…`, `normal`).
 pub fn fault_type_of_class(class: &str) -> Option<FaultType> {
     if class.starts_with("IR") {
@@ -563,6 +606,9 @@ fn print_summary(report: &Prediction) {
             None => "; no physical diagnosis (no usable drive-end channel)".to_string(),
         }
     );
+    for w in &report.warnings {
+        eprintln!("warning: {w}");
+    }
 }
 
 /// A model `predict` can run, loaded once: an int8 model file or a burn model.

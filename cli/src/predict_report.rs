@@ -160,4 +160,8 @@ pub struct Prediction {
     /// The diagnosis in physical terms (`null` without a drive-end channel or when
     /// no window could be diagnosed).
     pub diagnosis: Option<RecordDiagnosisReport>,
+    /// What a reader must not miss: the network's class not supported by the physics
+    /// (a record outside its training conditions: another machine, noise, a wrong
+    /// speed), the two naming different faults, windows the physics could not read.
+    pub warnings: Vec<String>,
 }

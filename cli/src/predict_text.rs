@@ -93,6 +93,9 @@ pub fn table(r: &Prediction) -> String {
         }
         None => s.push_str("diagnosis: none (no usable drive-end channel)\n"),
     }
+    for w in &r.warnings {
+        let _ = writeln!(s, "warning: {w}");
+    }
     s
 }
 
@@ -159,10 +162,12 @@ mod tests {
             majority_class: "IR007".into(),
             class_counts: BTreeMap::from([("IR007".to_string(), 6)]),
             diagnosis: None,
+            warnings: vec!["w".into()],
         };
         let t = table(&r);
         let rows: Vec<&str> = t.lines().collect();
-        assert_eq!(rows.len(), 2 + 3 + 2, "{t}");
+        assert_eq!(rows.len(), 2 + 3 + 2 + 1, "{t}");
+        assert_eq!(rows[7], "warning: w");
         assert!(
             rows[2].contains("normal") && rows[2].contains("0.90"),
             "{t}"

@@ -221,3 +221,53 @@ fn a_wav_of_the_fixture_gives_the_csv_diagnosis() {
     assert_eq!(from_wav["windows"].as_array().unwrap().len(), 10);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// White noise at the drive end: the network still names a CWRU class, but the physics
+/// finds no line and no impulsiveness, calls it normal without confidence, and the
+/// report warns that the network's class is not supported; the real record has no
+/// warning.
+#[test]
+fn noise_is_not_a_confident_fault() {
+    let dir = std::env::temp_dir().join(format!("pumptwin-noise-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut state = 12345u64;
+    let mut text = String::from("DE\n");
+    for _ in 0..36_000 {
+        // Sum of 12 uniforms (Irwin–Hall): near-Gaussian, deterministic.
+        let mut v = -6.0f64;
+        for _ in 0..12 {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            v += (state >> 11) as f64 / (1u64 << 53) as f64;
+        }
+        text.push_str(&format!("{:.5}\n", 0.1 * v));
+    }
+    let noise = dir.join("noise.csv");
+    std::fs::write(&noise, text).unwrap();
+    let model = "models/dsstgat-cwru-tb.ptm";
+    let r = predict(&noise, model, &dir.join("n.json"));
+    assert_eq!(r["diagnosis"]["fault_type"], "normal", "{}", r["diagnosis"]);
+    assert!(r["diagnosis"]["confidence"].as_f64().unwrap() < 0.6);
+    let warnings = r["warnings"].as_array().unwrap();
+    if r["majority_class"] != "normal" {
+        assert!(
+            warnings
+                .iter()
+                .any(|w| w.as_str().unwrap().contains("not supported")),
+            "{warnings:?}"
+        );
+    }
+    let real = predict(
+        &root().join("tests/data/cwru105_1s.csv"),
+        model,
+        &dir.join("r.json"),
+    );
+    assert_eq!(
+        real["warnings"].as_array().unwrap().len(),
+        0,
+        "{}",
+        real["warnings"]
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
