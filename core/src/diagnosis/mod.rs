@@ -547,4 +547,56 @@ mod tests {
         let e = evidence(&spall(0.0, n, 4), 10.0);
         assert!(e.delay.resolved().1, "{:?}", e.delay);
     }
+
+    /// Whatever the samples, rate, speed and geometry (tiny, huge, extreme orders,
+    /// spikes, lengths from 16 to 4 096), the evidence and the decision return, an
+    /// error or a value whose numbers are finite: never a panic.
+    #[test]
+    fn any_input_returns_without_panicking() {
+        let mut r = Xoshiro128pp::seed_from_u64(99);
+        for case in 0..300 {
+            let n = 16usize << (case % 9);
+            let scale = [1e-30f32, 1e-3, 1.0, 1e3, 1e30][case % 5];
+            let x: Vec<f32> = (0..n)
+                .map(|i| {
+                    let v = r.normal() as f32 * scale;
+                    if i % 97 == 3 {
+                        v * 1e3
+                    } else {
+                        v
+                    }
+                })
+                .collect();
+            let fs = [100.0f32, 12_000.0, 51_200.0, 1e6][case % 4];
+            let shaft = [0.01f32, 1.0, 29.95, 500.0, 1e5][case % 5];
+            let orders = DefectOrders {
+                ftf: 0.4,
+                bpfo: [0.01f32, 3.585, 50.0][case % 3],
+                bpfi: 5.415,
+                bsf: [0.001f32, 2.357][case % 2],
+            };
+            let mut spectrum = vec![Complex32::ZERO; n];
+            let mut scratch = vec![Complex32::ZERO; n];
+            let mut env = vec![0.0; n];
+            let (mut es, mut ses, mut work) = (
+                vec![0.0; n / 2 + 1],
+                vec![0.0; n / 2 + 1],
+                vec![0.0; n / 2 + 1],
+            );
+            let buf = Buffers {
+                spectrum: &mut spectrum,
+                scratch: &mut scratch,
+                env: &mut env,
+                es: &mut es,
+                ses: &mut ses,
+                work: &mut work,
+            };
+            if let Ok(e) = window_evidence(&x, fs, shaft, &orders, buf) {
+                let d = decide(&e, &Thresholds::DEFAULT);
+                assert!((0.0..=1.0).contains(&d.confidence), "case {case}: {d:?}");
+                let _ = e.width(Defect::Outer);
+            }
+            let _ = segment_len(fs, shaft, DEFAULT_REVOLUTIONS, n);
+        }
+    }
 }
