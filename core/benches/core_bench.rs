@@ -214,26 +214,13 @@ fn diagnosis_seconds(n: usize) -> f64 {
         })
         .collect();
     let orders = BearingGeometry::CWRU_6205_DE.orders();
-    let mut spectrum = vec![Complex32::ZERO; n];
-    let mut scratch = vec![Complex32::ZERO; n];
-    let mut env = vec![0.0f32; n];
-    let (mut es, mut ses, mut work) = (
-        vec![0.0f32; n / 2 + 1],
-        vec![0.0f32; n / 2 + 1],
-        vec![0.0f32; n / 2 + 1],
-    );
+    let mut complex = vec![Complex32::ZERO; Buffers::complex_len(n)];
+    let mut real = vec![0.0f32; Buffers::real_len(n)];
     let reps = (1 << 17) / n;
     let secs = best_of(1.0, || {
         let mut last = 0.0;
         for _ in 0..reps {
-            let buf = Buffers {
-                spectrum: &mut spectrum,
-                scratch: &mut scratch,
-                env: &mut env,
-                es: &mut es,
-                ses: &mut ses,
-                work: &mut work,
-            };
+            let buf = Buffers::carve(&mut complex, &mut real, n).expect("buffers");
             let e =
                 window_evidence(black_box(&x), 12_000.0, 29.95, &orders, buf).expect("evidence");
             last = decide(&e, &Thresholds::DEFAULT).confidence;

@@ -50,12 +50,8 @@ pub fn diagnose_windows(
 ) -> Option<Vec<WindowDiagnosis>> {
     let ch = rec.channel(channel)?;
     let longest = segment.max(window);
-    let mut spectrum = vec![Complex32::ZERO; longest];
-    let mut scratch = vec![Complex32::ZERO; longest];
-    let mut env = vec![0.0f32; longest];
-    let mut es = vec![0.0f32; longest / 2 + 1];
-    let mut ses = vec![0.0f32; longest / 2 + 1];
-    let mut work = vec![0.0f32; longest / 2 + 1];
+    let mut complex = vec![Complex32::ZERO; Buffers::complex_len(longest)];
+    let mut real = vec![0.0f32; Buffers::real_len(longest)];
     let mut diagnose = |s: usize| -> WindowDiagnosis {
         let end = s + window;
         let Some(own) = ch.samples.get(s..end) else {
@@ -78,15 +74,7 @@ pub fn diagnose_windows(
             len /= 2;
         }
         let x = &ch.samples[end - len..end];
-        let h = len / 2 + 1;
-        let buf = Buffers {
-            spectrum: &mut spectrum[..len],
-            scratch: &mut scratch[..len],
-            env: &mut env[..len],
-            es: &mut es[..h],
-            ses: &mut ses[..h],
-            work: &mut work[..h],
-        };
+        let buf = Buffers::carve(&mut complex, &mut real, len)?;
         let e = window_evidence(x, rec.fs_hz, shaft_hz, orders, buf)?;
         Ok(decide(&e, t))
     };

@@ -459,29 +459,21 @@ struct ChannelState {
     history: Option<Box<SampleRing<HISTORY>>>,
 }
 
-/// Buffers of the physical diagnosis (`pumptwin_core::diagnosis`) over the history.
+/// Buffers of the physical diagnosis (`pumptwin_core::diagnosis`) over the history:
+/// the stretch read, and the slabs its transforms are carved from.
 #[derive(Debug)]
 struct PhysicsBuffers {
     samples: Vec<f32>,
-    spectrum: Vec<Complex32>,
-    scratch: Vec<Complex32>,
-    env: Vec<f32>,
-    es: Vec<f32>,
-    ses: Vec<f32>,
-    work: Vec<f32>,
+    complex: Vec<Complex32>,
+    real: Vec<f32>,
 }
 
 impl PhysicsBuffers {
     fn new() -> Self {
-        let h = HISTORY / 2 + 1;
         Self {
             samples: vec![0.0; HISTORY],
-            spectrum: vec![Complex32::ZERO; HISTORY],
-            scratch: vec![Complex32::ZERO; HISTORY],
-            env: vec![0.0; HISTORY],
-            es: vec![0.0; h],
-            ses: vec![0.0; h],
-            work: vec![0.0; h],
+            complex: vec![Complex32::ZERO; Buffers::complex_len(HISTORY)],
+            real: vec![0.0; Buffers::real_len(HISTORY)],
         }
     }
 }
@@ -1021,25 +1013,12 @@ impl Pipeline {
             return None;
         }
         history.copy_out(from, &mut b.samples[..len]);
-        let h = len / 2 + 1;
-        let buf = Buffers {
-            spectrum: &mut b.spectrum[..len],
-            scratch: &mut b.scratch[..len],
-            env: &mut b.env[..len],
-            es: &mut b.es[..h],
-            ses: &mut b.ses[..h],
-            work: &mut b.work[..h],
-        };
         let orders = self.machine.bearing.orders();
+        let (fs, shaft) = (self.cfg.fs_hz, self.cfg.shaft_hz);
         Some(
-            window_evidence(
-                &b.samples[..len],
-                self.cfg.fs_hz,
-                self.cfg.shaft_hz,
-                &orders,
-                buf,
-            )
-            .map(|e| decide(&e, &thresholds)),
+            Buffers::carve(&mut b.complex, &mut b.real, len)
+                .and_then(|buf| window_evidence(&b.samples[..len], fs, shaft, &orders, buf))
+                .map(|e| decide(&e, &thresholds)),
         )
     }
 

@@ -75,7 +75,7 @@ pub use types::{
 pub use width::{entry_exit_delay, Delay, PROMINENCE};
 
 use crate::bearing::DefectOrders;
-use crate::error::{expect_len, Result};
+use crate::error::{expect_len, Error, Result};
 use crate::fft::Complex32;
 use crate::math;
 
@@ -238,6 +238,51 @@ pub struct Buffers<'a> {
     pub work: &'a mut [f32],
 }
 
+impl<'a> Buffers<'a> {
+    /// Complex values the buffers of a stretch of `n` samples take.
+    pub const fn complex_len(n: usize) -> usize {
+        2 * n
+    }
+
+    /// Real values the buffers of a stretch of `n` samples take.
+    pub const fn real_len(n: usize) -> usize {
+        n + 3 * (n / 2 + 1)
+    }
+
+    /// The buffers of a stretch of `n` samples, cut from two caller-owned slabs at
+    /// least [`Buffers::complex_len`] and [`Buffers::real_len`] long (a caller that
+    /// reads stretches of several lengths keeps one pair of slabs for the longest).
+    pub fn carve(complex: &'a mut [Complex32], real: &'a mut [f32], n: usize) -> Result<Self> {
+        let half = n / 2 + 1;
+        let complex_len = complex.len();
+        let real_len = real.len();
+        let (spectrum, rest) = complex.split_at_mut_checked(n).ok_or(Error::BufferSize {
+            expected: Self::complex_len(n),
+            got: complex_len,
+        })?;
+        let scratch = rest.get_mut(..n).ok_or(Error::BufferSize {
+            expected: Self::complex_len(n),
+            got: complex_len,
+        })?;
+        let short = Error::BufferSize {
+            expected: Self::real_len(n),
+            got: real_len,
+        };
+        let (env, rest) = real.split_at_mut_checked(n).ok_or(short)?;
+        let (es, rest) = rest.split_at_mut_checked(half).ok_or(short)?;
+        let (ses, rest) = rest.split_at_mut_checked(half).ok_or(short)?;
+        let work = rest.get_mut(..half).ok_or(short)?;
+        Ok(Self {
+            spectrum,
+            scratch,
+            env,
+            es,
+            ses,
+            work,
+        })
+    }
+}
+
 fn sigmoid(z: f32) -> f32 {
     (1.0 / (1.0 + math::exp(-f64::from(z)))) as f32
 }
@@ -358,7 +403,6 @@ pub fn decide(evidence: &Evidence, t: &Thresholds) -> Diagnosis {
 mod tests {
     use super::*;
     use crate::bearing::BearingGeometry;
-    use crate::error::Error;
     use crate::rng::Xoshiro128pp;
     use std::vec;
     use std::vec::Vec;
@@ -407,22 +451,20 @@ mod tests {
     }
 
     fn try_evidence(x: &[f32], shaft: f32) -> Result<Evidence> {
+        try_evidence_of(x, FS, shaft, &BearingGeometry::CWRU_6205_DE.orders())
+    }
+
+    fn try_evidence_of(x: &[f32], fs: f32, shaft: f32, orders: &DefectOrders) -> Result<Evidence> {
         let n = x.len();
-        let mut spectrum = vec![Complex32::ZERO; n];
-        let mut scratch = vec![Complex32::ZERO; n];
-        let mut env = vec![0.0; n];
-        let mut es = vec![0.0; n / 2 + 1];
-        let mut ses = vec![0.0; n / 2 + 1];
-        let mut work = vec![0.0; n / 2 + 1];
-        let buf = Buffers {
-            spectrum: &mut spectrum,
-            scratch: &mut scratch,
-            env: &mut env,
-            es: &mut es,
-            ses: &mut ses,
-            work: &mut work,
-        };
-        window_evidence(x, FS, shaft, &BearingGeometry::CWRU_6205_DE.orders(), buf)
+        let mut complex = vec![Complex32::ZERO; Buffers::complex_len(n)];
+        let mut real = vec![0.0; Buffers::real_len(n)];
+        window_evidence(
+            x,
+            fs,
+            shaft,
+            orders,
+            Buffers::carve(&mut complex, &mut real, n)?,
+        )
     }
 
     fn evidence(x: &[f32], shaft: f32) -> Evidence {
@@ -496,6 +538,20 @@ mod tests {
         x[5] = f32::NAN;
         assert_eq!(try_evidence(&x, 29.95), Err(Error::NonFinite));
         assert_eq!(try_evidence(&[0.25f32; N], 29.95), Err(Error::Degenerate));
+        // Slabs too short for the stretch: the length they need, never a panic.
+        let (mut c, mut r) = (
+            vec![Complex32::ZERO; 2 * N - 1],
+            vec![0.0f32; Buffers::real_len(N)],
+        );
+        assert!(matches!(
+            Buffers::carve(&mut c, &mut r, N),
+            Err(Error::BufferSize { expected, .. }) if expected == 2 * N
+        ));
+        let (mut c, mut r) = (
+            vec![Complex32::ZERO; 2 * N],
+            vec![0.0f32; Buffers::real_len(N) - 1],
+        );
+        assert!(Buffers::carve(&mut c, &mut r, N).is_err());
         for name in FaultType::ALL.map(FaultType::name) {
             assert_eq!(FaultType::from_name(name).map(FaultType::name), Some(name));
         }
@@ -575,23 +631,7 @@ mod tests {
                 bpfi: 5.415,
                 bsf: [0.001f32, 2.357][case % 2],
             };
-            let mut spectrum = vec![Complex32::ZERO; n];
-            let mut scratch = vec![Complex32::ZERO; n];
-            let mut env = vec![0.0; n];
-            let (mut es, mut ses, mut work) = (
-                vec![0.0; n / 2 + 1],
-                vec![0.0; n / 2 + 1],
-                vec![0.0; n / 2 + 1],
-            );
-            let buf = Buffers {
-                spectrum: &mut spectrum,
-                scratch: &mut scratch,
-                env: &mut env,
-                es: &mut es,
-                ses: &mut ses,
-                work: &mut work,
-            };
-            if let Ok(e) = window_evidence(&x, fs, shaft, &orders, buf) {
+            if let Ok(e) = try_evidence_of(&x, fs, shaft, &orders) {
                 let d = decide(&e, &Thresholds::DEFAULT);
                 assert!((0.0..=1.0).contains(&d.confidence), "case {case}: {d:?}");
                 let _ = e.width(Defect::Outer);
