@@ -58,29 +58,27 @@ pub(super) fn trace(ctx: &TraceContext<'_>, out: &mut Vec<Candidate>) {
                     );
                     let strength = 6.0 + (low - high).min(20.0);
                     let half_s = (half as f64 / f64::from(fs)).max(1e-3);
-                    if shift.abs() > 0.0025 {
-                        out.push(Candidate {
-                            effect: Effect::SpeedDrift { initial_per_s: f64::from(shift) / half_s, initial_rate_factor: mean_factor },
-                            evidence: Evidence {
-                                summary: format!("the defect comb loses {:.1} dB more contrast at high orders than the model, and the defect rate moves by {:+.2} % between the record's halves: the speed drifts", low - high, 100.0 * shift),
-                                components: vec![],
-                                figures,
-                            },
-                            strength,
-                            check: Check::CombContrast { rate },
-                        });
+                    let (effect, summary) = if shift.abs() > 0.0025 {
+                        (
+                            Effect::SpeedDrift { initial_per_s: f64::from(shift) / half_s, initial_rate_factor: mean_factor },
+                            format!("the defect comb loses {:.1} dB more contrast at high orders than the model, and the defect rate moves by {:+.2} % between the record's halves: the speed drifts", low - high, 100.0 * shift),
+                        )
                     } else {
-                        out.push(Candidate {
-                            effect: Effect::Slip,
-                            evidence: Evidence {
-                                summary: format!("the defect comb loses {:.1} dB more contrast at high orders than the model at a steady rate ({:+.2} % between halves): random impact timing, rolling-element slip", low - high, 100.0 * shift),
-                                components: vec![],
-                                figures,
-                            },
-                            strength,
-                            check: Check::CombContrast { rate },
-                        });
-                    }
+                        (
+                            Effect::Slip,
+                            format!("the defect comb loses {:.1} dB more contrast at high orders than the model at a steady rate ({:+.2} % between halves): random impact timing, rolling-element slip", low - high, 100.0 * shift),
+                        )
+                    };
+                    out.push(Candidate {
+                        effect,
+                        evidence: Evidence {
+                            summary,
+                            components: vec![],
+                            figures,
+                        },
+                        strength,
+                        check: Check::CombContrast { rate },
+                    });
                 }
             }
         }
