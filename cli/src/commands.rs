@@ -728,6 +728,30 @@ pub enum TwinCmd {
     Generate(TwinGenerateArgs),
     /// Run the loop on the CWRU records and write docs/closed-loop-cwru.md.
     CwruReport(TwinCwruArgs),
+    /// Score the loop on randomized records with undeclared effects.
+    ///
+    /// Example: pumptwin twin bench --cases 100 --seed 1 --out out/bench --doc docs/closed-loop-bench.md
+    Bench(TwinBenchArgs),
+}
+
+/// `pumptwin twin bench`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct TwinBenchArgs {
+    /// Cases to draw (a quarter of them clean controls).
+    #[arg(long, default_value_t = 100)]
+    pub cases: usize,
+    /// Seed of the draw.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Threads (default: the machine's cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Output directory: cases.jsonl (one scored case per line) and report.md.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Also write the report here (docs/closed-loop-bench.md).
+    #[arg(long)]
+    pub doc: Option<PathBuf>,
 }
 
 /// `pumptwin twin loop`.
@@ -773,6 +797,7 @@ pub fn run_twin(cmd: &TwinCmd) -> Result<()> {
     match cmd {
         TwinCmd::Loop(args) => run_twin_loop(args),
         TwinCmd::CwruReport(args) => run_twin_cwru(args),
+        TwinCmd::Bench(args) => run_twin_bench(args),
         TwinCmd::Generate(args) => {
             use pumptwin_twin::generate::{generate, FS_HZ, RPM};
             let x = generate(args.effect, args.strength, args.duration, args.seed)?;
@@ -797,6 +822,47 @@ pub fn run_twin(cmd: &TwinCmd) -> Result<()> {
             Ok(())
         }
     }
+}
+
+fn run_twin_bench(args: &TwinBenchArgs) -> Result<()> {
+    use pumptwin_twin::bench::{run, score};
+    use std::io::Write;
+    ensure!(args.cases > 0, "--cases 0: nothing to run");
+    let threads = args.threads.unwrap_or_else(|| {
+        std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
+    });
+    let t0 = std::time::Instant::now();
+    let outcomes = run(args.cases, args.seed, threads, &|done| {
+        eprint!("\r{done}/{} cases", args.cases);
+    });
+    eprintln!();
+    std::fs::create_dir_all(&args.out).with_context(|| format!("create {}", args.out.display()))?;
+    let path = args.out.join("cases.jsonl");
+    let mut f = std::io::BufWriter::new(
+        std::fs::File::create(&path).with_context(|| format!("create {}", path.display()))?,
+    );
+    for o in &outcomes {
+        serde_json::to_writer(&mut f, o)?;
+        writeln!(f)?;
+    }
+    f.flush()?;
+    let summary = score::summarize(&outcomes);
+    let command = format!(
+        "pumptwin twin bench --cases {} --seed {}",
+        args.cases, args.seed
+    );
+    let mut md = score::markdown(&summary, &command);
+    md.push_str(&format!(
+        "\nWall time: {:.0} s for {} cases on {threads} thread(s).\n",
+        t0.elapsed().as_secs_f64(),
+        args.cases
+    ));
+    std::fs::write(args.out.join("report.md"), &md)?;
+    if let Some(doc) = &args.doc {
+        std::fs::write(doc, &md).with_context(|| format!("write {}", doc.display()))?;
+    }
+    outln!("{md}");
+    Ok(())
 }
 
 fn run_twin_loop(args: &TwinLoopArgs) -> Result<()> {

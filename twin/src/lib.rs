@@ -15,6 +15,7 @@
 //! | [`generate`] | records with undeclared effects, for tests |
 //! | [`report`] | `report.json` and the PNG plots |
 //! | [`sim`] | multi-node records from the core's 2-DOF model (DE, FE, BA) |
+//! | [`bench`] | the loop's benchmark: randomized records with undeclared effects, claims scored |
 //! | [`randomized`] | simulated records with the conditions randomized (the `sim-only` development set) |
 //! | [`plot`] | line plots (PNG) shared with the trainer's figures |
 //!
@@ -24,6 +25,7 @@
 
 #![forbid(unsafe_code)]
 
+pub mod bench;
 pub mod closed_loop;
 pub mod effect;
 pub mod fit;

@@ -1,0 +1,436 @@
+//! Scoring the loop's claims against what was injected: per case (what was found,
+//! missed and claimed falsely), then per effect (recall by strength bin, precision,
+//! frequency error), on the clean controls (false-claim rate) and on the error.
+//!
+//! A claim is an effect the loop added (its name in `effects`), `clipping` when the
+//! report says `clipped`, `dropouts` when it counted any. A claim is true when an
+//! injection of the case accepts its name ([`Injection::accepted`]); every other claim
+//! is false, whatever it names — a base property (slip, the base's own load zone, its
+//! second mode, its spread of strengths) read as an effect is a false claim too,
+//! because the base is what every bearing signal has.
+
+use super::draw::{bin, Case, Injection, BINS};
+use crate::closed_loop::LoopReport;
+use crate::twin::Effect;
+
+/// One case's outcome.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Outcome {
+    /// The case.
+    pub case: Case,
+    /// The loop's claims.
+    pub claims: Vec<String>,
+    /// Per injection (in the case's order): whether a claim named it.
+    pub found: Vec<bool>,
+    /// Per injection: the named frequency's relative error, where both have one.
+    pub freq_rel_error: Vec<Option<f64>>,
+    /// Claims no injection accepts.
+    pub false_claims: Vec<String>,
+    /// The fault the loop's first fit assumed, and the truth.
+    pub fault_claimed: String,
+    /// The true defect (`none` for a healthy bearing).
+    pub fault_true: String,
+    /// PSD error of the first fit and at the end, dB, and the record's own scatter.
+    pub psd_initial_db: f64,
+    /// PSD error at the end, dB.
+    pub psd_final_db: f64,
+    /// Half-to-half scatter, dB.
+    pub psd_scatter_db: Option<f64>,
+    /// Wall time of the loop, s.
+    pub seconds: f64,
+    /// The loop's error, when it ran into one (the case then claims nothing).
+    pub error: Option<String>,
+}
+
+/// The claims a report makes.
+pub fn claims(report: &LoopReport) -> Vec<String> {
+    let mut c = report.effects.clone();
+    if report.clipped {
+        c.push("clipping".into());
+    }
+    if report.dropouts > 0 {
+        c.push("dropouts".into());
+    }
+    c
+}
+
+/// The frequency a kept effect names, Hz, to compare with an injection's.
+fn claimed_frequencies(e: &Effect) -> Vec<f64> {
+    match e {
+        Effect::LineInterference { freqs } => freqs.clone(),
+        Effect::ExtraResonance { f_hz } | Effect::RandomBursts { f_hz, .. } => vec![*f_hz],
+        Effect::SecondImpactTrain { rate_hz, .. } => vec![*rate_hz],
+        Effect::LoadZoneModulation { mod_hz } => vec![*mod_hz],
+        _ => Vec::new(),
+    }
+}
+
+/// Score one case's report.
+pub fn score(case: Case, report: &LoopReport) -> Outcome {
+    let claims = claims(report);
+    let mut found = Vec::new();
+    let mut freq_rel_error = Vec::new();
+    for d in &case.injected {
+        let accepted = d.injection.accepted();
+        found.push(claims.iter().any(|c| accepted.contains(&c.as_str())));
+        let named: Vec<f64> = report
+            .steps
+            .iter()
+            .filter(|s| accepted.contains(&s.detail.name()))
+            .flat_map(|s| claimed_frequencies(&s.detail))
+            .collect();
+        freq_rel_error.push(d.injection.frequency_hz().and_then(|f| {
+            let truths: Vec<f64> = match &d.injection {
+                // A mains claim may name any of its harmonics.
+                Injection::Mains { lines, .. } => {
+                    lines.iter().map(|(h, _)| f * f64::from(*h)).collect()
+                }
+                _ => vec![f],
+            };
+            named
+                .iter()
+                .flat_map(|c| truths.iter().map(move |t| (c / t - 1.0).abs()))
+                .reduce(f64::min)
+        }));
+    }
+    let false_claims = claims
+        .iter()
+        .filter(|c| {
+            !case
+                .injected
+                .iter()
+                .any(|d| d.injection.accepted().contains(&c.as_str()))
+        })
+        .cloned()
+        .collect();
+    let fault_true = case.base.defect.map_or("none", |d| d.name()).to_string();
+    Outcome {
+        claims,
+        found,
+        freq_rel_error,
+        false_claims,
+        fault_claimed: report.fault.clone(),
+        fault_true,
+        psd_initial_db: f64::from(report.error_initial.psd_log_rmse_db),
+        psd_final_db: f64::from(report.error_final.psd_log_rmse_db),
+        psd_scatter_db: report.psd_scatter_db.map(f64::from),
+        seconds: report.seconds,
+        error: None,
+        case,
+    }
+}
+
+/// A case whose loop failed: it claims nothing and finds nothing.
+pub fn failed(case: Case, error: String) -> Outcome {
+    let n = case.injected.len();
+    Outcome {
+        claims: Vec::new(),
+        found: vec![false; n],
+        freq_rel_error: vec![None; n],
+        false_claims: Vec::new(),
+        fault_claimed: "error".into(),
+        fault_true: case.base.defect.map_or("none", |d| d.name()).to_string(),
+        psd_initial_db: f64::NAN,
+        psd_final_db: f64::NAN,
+        psd_scatter_db: None,
+        seconds: 0.0,
+        error: Some(error),
+        case,
+    }
+}
+
+/// Per injection kind: cases, found per strength bin, frequency errors.
+#[derive(Debug, Clone, Default)]
+pub struct EffectTally {
+    /// Injected per bin.
+    pub injected: [usize; 3],
+    /// Found per bin.
+    pub found: [usize; 3],
+    /// Relative frequency errors of the found ones that name a frequency.
+    pub freq_errors: Vec<f64>,
+}
+
+/// Per claim name: how often it was made and how often it was true.
+#[derive(Debug, Clone, Default)]
+pub struct ClaimTally {
+    /// Claims made.
+    pub made: usize,
+    /// Of them true.
+    pub true_: usize,
+    /// Of them on clean controls.
+    pub on_controls: usize,
+}
+
+/// The whole benchmark's figures.
+#[derive(Debug, Clone, Default)]
+pub struct Summary {
+    /// Cases.
+    pub cases: usize,
+    /// Cases whose loop ran into an error.
+    pub errors: usize,
+    /// Clean controls, and those with any claim.
+    pub controls: usize,
+    /// Controls with at least one claim.
+    pub controls_claiming: usize,
+    /// Per injection kind (sorted by name).
+    pub effects: Vec<(String, EffectTally)>,
+    /// Per claim name (sorted by name).
+    pub claims: Vec<(String, ClaimTally)>,
+    /// Relative PSD error drops (initial − final)/initial on effect cases.
+    pub drops_effect: Vec<f64>,
+    /// The same on controls.
+    pub drops_control: Vec<f64>,
+    /// First fit's PSD error over the record's scatter, on controls.
+    pub base_over_scatter: Vec<f64>,
+    /// Fault hypothesis right / cases with a loop result.
+    pub fault_right: usize,
+    /// Cases with a loop result.
+    pub fault_cases: usize,
+    /// Loop wall times, s.
+    pub seconds: Vec<f64>,
+}
+
+/// Tally the outcomes.
+pub fn summarize(outcomes: &[Outcome]) -> Summary {
+    use std::collections::BTreeMap;
+    let mut s = Summary {
+        cases: outcomes.len(),
+        ..Summary::default()
+    };
+    let mut effects: BTreeMap<String, EffectTally> = BTreeMap::new();
+    let mut claims: BTreeMap<String, ClaimTally> = BTreeMap::new();
+    for o in outcomes {
+        if o.error.is_some() {
+            s.errors += 1;
+        }
+        let control = o.case.injected.is_empty();
+        if control {
+            s.controls += 1;
+            s.controls_claiming += usize::from(!o.claims.is_empty());
+        }
+        for (i, d) in o.case.injected.iter().enumerate() {
+            let t = effects.entry(d.injection.name().into()).or_default();
+            let b = bin(d.u);
+            t.injected[b] += 1;
+            t.found[b] += usize::from(o.found[i]);
+            if let (true, Some(e)) = (o.found[i], o.freq_rel_error[i]) {
+                t.freq_errors.push(e);
+            }
+        }
+        for c in &o.claims {
+            let t = claims.entry(c.clone()).or_default();
+            t.made += 1;
+            t.true_ += usize::from(!o.false_claims.contains(c));
+            t.on_controls += usize::from(control);
+        }
+        if o.error.is_none() {
+            let drop = (o.psd_initial_db - o.psd_final_db) / o.psd_initial_db;
+            if control {
+                s.drops_control.push(drop);
+                if let Some(sc) = o.psd_scatter_db {
+                    s.base_over_scatter.push(o.psd_initial_db / sc);
+                }
+            } else {
+                s.drops_effect.push(drop);
+            }
+            s.fault_cases += 1;
+            s.fault_right += usize::from(o.fault_claimed == o.fault_true);
+            s.seconds.push(o.seconds);
+        }
+    }
+    s.effects = effects.into_iter().collect();
+    s.claims = claims.into_iter().collect();
+    s
+}
+
+fn pct(a: usize, b: usize) -> String {
+    if b == 0 {
+        "–".into()
+    } else {
+        format!("{:.0} % ({a}/{b})", 100.0 * a as f64 / b as f64)
+    }
+}
+
+fn median(v: &[f64]) -> f64 {
+    let mut v: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn mean(v: &[f64]) -> f64 {
+    v.iter().sum::<f64>() / v.len().max(1) as f64
+}
+
+/// The report as markdown.
+pub fn markdown(s: &Summary, command: &str) -> String {
+    let mut m = String::new();
+    let mut line = |t: String| {
+        m.push_str(&t);
+        m.push('\n');
+    };
+    line("# The closed loop on randomized records with undeclared effects".into());
+    line(String::new());
+    line(format!(
+        "Generated by `{command}` (`pumptwin_twin::bench`). Each case is a record \
+         synthesized from Randall & Antoni's (2011) bearing signal with its conditions \
+         drawn at random (geometry, 600–3600 rpm, fault type incl. none, slip 0.5–2 %, \
+         strength spread 5–30 %, load zone, 1–3 modes, background and sensor noise, \
+         acquisition at 10.24/12/12.8 kHz behind an anti-alias filter) and 0–2 effects \
+         of random strength. The loop is told the signal, its rate, the nominal speed \
+         and the geometry, nothing else. A claim that no injection accepts is false, \
+         whatever it names (see `bench::score`)."
+    ));
+    line(String::new());
+    line(format!(
+        "- cases: {} ({} clean controls), loops that failed: {}",
+        s.cases, s.controls, s.errors
+    ));
+    line(format!(
+        "- **false claims on clean controls: {}** of controls claim at least one effect",
+        pct(s.controls_claiming, s.controls)
+    ));
+    line(format!(
+        "- fault hypothesis right: {}",
+        pct(s.fault_right, s.fault_cases)
+    ));
+    line(format!(
+        "- PSD error drop, mean: {:.1} % on effect cases ({} cases), {:.1} % on controls",
+        100.0 * mean(&s.drops_effect),
+        s.drops_effect.len(),
+        100.0 * mean(&s.drops_control)
+    ));
+    line(format!(
+        "- first fit's PSD error over the record's half-to-half scatter on controls: median {:.2}× ({} controls)",
+        median(&s.base_over_scatter),
+        s.base_over_scatter.len()
+    ));
+    line(format!(
+        "- loop wall time per case: median {:.1} s, max {:.1} s",
+        median(&s.seconds),
+        s.seconds.iter().copied().fold(0.0, f64::max)
+    ));
+    line(String::new());
+    line("## Recall per injected effect, by strength bin".into());
+    line(String::new());
+    line(format!(
+        "| effect | {} | {} | {} | all | median frequency error |",
+        BINS[0], BINS[1], BINS[2]
+    ));
+    line("|---|---|---|---|---|---|".into());
+    for (name, t) in &s.effects {
+        let fe = if t.freq_errors.is_empty() {
+            "–".to_string()
+        } else {
+            format!("{:.2} %", 100.0 * median(&t.freq_errors))
+        };
+        line(format!(
+            "| {name} | {} | {} | {} | {} | {fe} |",
+            pct(t.found[0], t.injected[0]),
+            pct(t.found[1], t.injected[1]),
+            pct(t.found[2], t.injected[2]),
+            pct(t.found.iter().sum(), t.injected.iter().sum()),
+        ));
+    }
+    line(String::new());
+    line("## Precision per claim".into());
+    line(String::new());
+    line("| claim | made | true | precision | on clean controls |".into());
+    line("|---|---|---|---|---|".into());
+    for (name, t) in &s.claims {
+        line(format!(
+            "| {name} | {} | {} | {} | {} |",
+            t.made,
+            t.true_,
+            pct(t.true_, t.made),
+            t.on_controls
+        ));
+    }
+    m
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bench::draw::{draw_case, Drawn, Mode};
+
+    fn outcome(injected: Vec<Injection>, claims: &[&str]) -> Outcome {
+        let mut case = draw_case(0, 1, 2.0);
+        case.injected = injected
+            .into_iter()
+            .map(|injection| Drawn { injection, u: 0.5 })
+            .collect();
+        let claims: Vec<String> = claims.iter().map(|c| c.to_string()).collect();
+        let found = case
+            .injected
+            .iter()
+            .map(|d| {
+                claims
+                    .iter()
+                    .any(|c| d.injection.accepted().contains(&c.as_str()))
+            })
+            .collect();
+        let false_claims = claims
+            .iter()
+            .filter(|c| {
+                !case
+                    .injected
+                    .iter()
+                    .any(|d| d.injection.accepted().contains(&c.as_str()))
+            })
+            .cloned()
+            .collect();
+        let n = case.injected.len();
+        Outcome {
+            claims,
+            found,
+            freq_rel_error: vec![None; n],
+            false_claims,
+            fault_claimed: "none".into(),
+            fault_true: "none".into(),
+            psd_initial_db: 4.0,
+            psd_final_db: 2.0,
+            psd_scatter_db: Some(1.0),
+            seconds: 1.0,
+            error: None,
+            case,
+        }
+    }
+
+    /// A control with a claim counts against the false-claim rate; an extra mode found
+    /// counts for its recall and its claim's precision; a slip claim on an effect case
+    /// is a false claim.
+    #[test]
+    fn claims_are_judged_against_the_injections() {
+        let mode = Injection::ExtraMode {
+            mode: Mode {
+                f_hz: 2000.0,
+                zeta: 0.03,
+                gain: 1.0,
+            },
+        };
+        let outs = vec![
+            outcome(vec![], &["random_bursts"]),
+            outcome(vec![], &[]),
+            outcome(vec![mode.clone()], &["extra_resonance", "slip"]),
+            outcome(vec![mode], &[]),
+        ];
+        let s = summarize(&outs);
+        assert_eq!((s.controls, s.controls_claiming), (2, 1));
+        let (_, t) = s.effects.iter().find(|(n, _)| n == "extra_mode").unwrap();
+        assert_eq!((t.injected[1], t.found[1]), (2, 1));
+        let get = |n: &str| s.claims.iter().find(|(c, _)| c == n).unwrap().1.clone();
+        assert_eq!(
+            (get("extra_resonance").made, get("extra_resonance").true_),
+            (1, 1)
+        );
+        assert_eq!((get("slip").made, get("slip").true_), (1, 0));
+        assert_eq!(get("random_bursts").on_controls, 1);
+        assert_eq!(s.drops_effect.len(), 2);
+        assert!((s.base_over_scatter[0] - 4.0).abs() < 1e-9);
+        let md = markdown(&s, "test");
+        assert!(md.contains("controls: 50 % (1/2)"), "{md}");
+    }
+}
