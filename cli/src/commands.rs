@@ -752,6 +752,15 @@ pub struct TwinBenchArgs {
     /// Also write the report here (docs/closed-loop-bench.md).
     #[arg(long)]
     pub doc: Option<PathBuf>,
+    /// Write only this case's record (DIR/case-ID.csv) and the `twin loop` command that
+    /// runs it, to look at one case's plots.
+    #[arg(long, value_name = "ID")]
+    pub write_case: Option<usize>,
+    /// Complete the first fit's base with what every bearing signal has (further
+    /// modes, load zone, slip, strength spread): issue 32's faithful base, off by
+    /// default while it costs four of the loop's probes.
+    #[arg(long)]
+    pub complete_base: bool,
 }
 
 /// `pumptwin twin loop`.
@@ -770,6 +779,10 @@ pub struct TwinLoopArgs {
     /// Output directory (report.json and PNGs).
     #[arg(long)]
     pub out: PathBuf,
+    /// Complete the first fit's base with what every bearing signal has (further
+    /// modes, load zone, slip, strength spread), reported as `base_terms`.
+    #[arg(long)]
+    pub complete_base: bool,
 }
 
 /// `pumptwin twin generate`.
@@ -828,11 +841,18 @@ fn run_twin_bench(args: &TwinBenchArgs) -> Result<()> {
     use pumptwin_twin::bench::{run, score};
     use std::io::Write;
     ensure!(args.cases > 0, "--cases 0: nothing to run");
+    if let Some(id) = args.write_case {
+        return write_bench_case(args, id);
+    }
     let threads = args.threads.unwrap_or_else(|| {
         std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
     });
     let t0 = std::time::Instant::now();
-    let outcomes = run(args.cases, args.seed, threads, &|done| {
+    let cfg = pumptwin_twin::closed_loop::LoopConfig {
+        complete_base: args.complete_base,
+        ..Default::default()
+    };
+    let outcomes = run(args.cases, args.seed, threads, &cfg, &|done| {
         eprint!("\r{done}/{} cases", args.cases);
     });
     eprintln!();
@@ -848,8 +868,14 @@ fn run_twin_bench(args: &TwinBenchArgs) -> Result<()> {
     f.flush()?;
     let summary = score::summarize(&outcomes);
     let command = format!(
-        "pumptwin twin bench --cases {} --seed {}",
-        args.cases, args.seed
+        "pumptwin twin bench --cases {} --seed {}{}",
+        args.cases,
+        args.seed,
+        if args.complete_base {
+            " --complete-base"
+        } else {
+            ""
+        }
     );
     let mut md = score::markdown(&summary, &command);
     md.push_str(&format!(
@@ -862,6 +888,38 @@ fn run_twin_bench(args: &TwinBenchArgs) -> Result<()> {
         std::fs::write(doc, &md).with_context(|| format!("write {}", doc.display()))?;
     }
     outln!("{md}");
+    Ok(())
+}
+
+fn write_bench_case(args: &TwinBenchArgs, id: usize) -> Result<()> {
+    use pumptwin_twin::bench::{draw::draw_case, synth::synthesize, RECORD_SECONDS};
+    let case = draw_case(id, args.seed, RECORD_SECONDS);
+    let b = &case.base;
+    let rec = Recording {
+        name: format!("bench case {id}"),
+        fs_hz: b.fs_hz as f32,
+        rpm: Some(b.rpm as f32),
+        channels: vec![pumptwin_data::record::Channel {
+            name: "DE".into(),
+            samples: synthesize(&case, RECORD_SECONDS),
+        }],
+    };
+    std::fs::create_dir_all(&args.out).with_context(|| format!("create {}", args.out.display()))?;
+    let path = args.out.join(format!("case-{id}.csv"));
+    write_csv(&rec, &path)?;
+    let g = &b.bearing;
+    outln!("{}", serde_json::to_string_pretty(&case)?);
+    outln!(
+        "pumptwin twin loop --input {} --fs {} --rpm {} --bearing {},{},{},{} --out {}",
+        path.display(),
+        b.fs_hz,
+        b.rpm,
+        g.n_elements,
+        g.element_diameter,
+        g.pitch_diameter,
+        g.contact_angle_deg,
+        args.out.join(format!("case-{id}")).display()
+    );
     Ok(())
 }
 
@@ -921,7 +979,11 @@ fn run_twin_loop(args: &TwinLoopArgs) -> Result<()> {
             .channel(&channel.name)
             .map(|c| pumptwin_twin::closed_loop::held_runs(&c.samples)),
     };
-    let (mut report, artifacts) = run(&input, &LoopConfig::default())?;
+    let cfg = LoopConfig {
+        complete_base: args.complete_base,
+        ..LoopConfig::default()
+    };
+    let (mut report, artifacts) = run(&input, &cfg)?;
     if let Some(c) = raw.channel(&channel.name) {
         pumptwin_twin::closed_loop::note_clipping(&mut report, &c.samples);
     }
@@ -933,6 +995,9 @@ fn run_twin_loop(args: &TwinLoopArgs) -> Result<()> {
         channel.name,
         report.fault
     );
+    if !report.base_terms.is_empty() {
+        outln!("base completed with: {}", report.base_terms.join(", "));
+    }
     outln!(
         "initial fit: PSD {:.2} dB RMSE, envelope {:.3} RMSE ({:.2} dB)",
         report.error_initial.psd_log_rmse_db,
@@ -979,6 +1044,9 @@ pub struct TwinCwruArgs {
     /// Directory for each record's report.json and plots.
     #[arg(long, default_value = "out/closed-loop-cwru")]
     pub reports: PathBuf,
+    /// Complete the first fit's base (see `twin loop --complete-base`).
+    #[arg(long)]
+    pub complete_base: bool,
 }
 
 /// Run the loop on the 0 HP record of every fault type and size, the normal record and
@@ -1009,7 +1077,11 @@ pub fn run_twin_cwru(args: &TwinCwruArgs) -> Result<()> {
                 .channel("DE")
                 .map(|c| pumptwin_twin::closed_loop::held_runs(&c.samples)),
         };
-        let (mut report, artifacts) = run(&input, &LoopConfig::default())?;
+        let cfg = LoopConfig {
+            complete_base: args.complete_base,
+            ..LoopConfig::default()
+        };
+        let (mut report, artifacts) = run(&input, &cfg)?;
         if let Some(c) = raw.channel("DE") {
             pumptwin_twin::closed_loop::note_clipping(&mut report, &c.samples);
         }
@@ -1105,7 +1177,7 @@ pub fn run_twin_cwru(args: &TwinCwruArgs) -> Result<()> {
     }
     let mut md = String::new();
     md.push_str("# Closed loop on the measured CWRU records\n\n");
-    md.push_str("Generated by\n\n```sh\ncargo run --release -p pumptwin --bin pumptwin -- twin cwru-report --data ../shared/data/cwru --out docs/closed-loop-cwru.md\n```\n\n");
+    md.push_str(&format!("Generated by\n\n```sh\ncargo run --release -p pumptwin --bin pumptwin -- twin cwru-report --data ../shared/data/cwru --out docs/closed-loop-cwru.md{}\n```\n\n", if args.complete_base { " --complete-base" } else { "" }));
     md.push_str("For each record the loop is told only the sampling rate, the recorded speed and the 6205 drive-end geometry. It models the drive-end channel (after the common 5 kHz band limit; the 48 kHz normal record is decimated to 12 kHz), fits Θ (eq. 10, Levenberg–Marquardt), traces the residual to the effects it lacks, adds them while they lower the error, and stops when the residual is noise-like or no candidate helps. The first 6 s of each record are used. Errors: `psd_log_rmse_db` (RMS dB difference of the power spectra from a quarter of the shaft rate, 7.2–7.5 Hz at these speeds, to 4.6 kHz) and `envelope_rmse` (envelope spectra to 1 kHz, relative to the measured mean level). Each record's `report.json` and plots are written under `out/closed-loop-cwru/<record>/` by the same command.\n\n");
     md.push_str("| record | label | HP | fault found | PSD error dB (first → final) | envelope error | effects added | residual noise-like | DE samples on the peak value |\n|---|---|---|---|---|---|---|---|---|\n");
     for r in &rows {

@@ -82,6 +82,11 @@ pub struct ImpactTrain {
     pub modulation_hz: f64,
     /// Timing jitter as a fraction of the period (0: strictly periodic).
     pub jitter: f64,
+    /// Spread of the impact strengths: each impact's amplitude is multiplied by
+    /// `max(0, 1 + spread · z)`, z standard normal (0: every impact alike). Real
+    /// bearings' impacts vary by 5–30 % (Randall & Antoni 2011, §2): the rolling
+    /// element's entry into the defect is never twice the same.
+    pub amplitude_spread: f64,
     /// Linear speed drift: the rate (and the modulation rate) scale by
     /// `1 + rate_drift_per_s · t` (0: constant speed).
     pub rate_drift_per_s: f64,
@@ -98,6 +103,7 @@ impl ImpactTrain {
             modulation_depth: 0.0,
             modulation_hz: 0.0,
             jitter: 0.0,
+            amplitude_spread: 0.0,
             rate_drift_per_s: 0.0,
         }
     }
@@ -111,6 +117,7 @@ impl ImpactTrain {
             self.modulation_depth,
             self.modulation_hz,
             self.jitter,
+            self.amplitude_spread,
             self.rate_drift_per_s,
         ];
         if v.iter().any(|x| !x.is_finite()) {
@@ -119,16 +126,19 @@ impl ImpactTrain {
         if self.rate_hz <= 0.0 || self.sigma_s <= 0.0 {
             return Err(Error::InvalidParameter("impact rate and width must be > 0"));
         }
-        if !(0.0..=1.0).contains(&self.modulation_depth) || self.jitter < 0.0 {
+        if !(0.0..=1.0).contains(&self.modulation_depth)
+            || self.jitter < 0.0
+            || self.amplitude_spread < 0.0
+        {
             return Err(Error::InvalidParameter(
-                "modulation depth in [0,1], jitter >= 0",
+                "modulation depth in [0,1], jitter >= 0, amplitude spread >= 0",
             ));
         }
         Ok(())
     }
 
-    /// Add `weight · F_impact` on `grid` into `out`. Jitter draws come from `rng`,
-    /// one per impact in time order, so a whole buffer must be rendered in one call.
+    /// Add `weight · F_impact` on `grid` into `out`. Jitter and spread draws come from
+    /// `rng`, in time order, so a whole buffer must be rendered in one call.
     pub fn add_to(
         &self,
         grid: TimeGrid,
@@ -175,8 +185,13 @@ impl ImpactTrain {
                 nominal
             };
             let depth = self.modulation_depth;
-            let am = 1.0 - depth
+            let mut am = 1.0 - depth
                 + depth * 0.5 * (1.0 + math::cos(2.0 * math::PI * self.modulation_hz * warp(t_n)));
+            // Drawn after the impact's jitter, and only with a spread: a train without
+            // one draws exactly what it drew before.
+            if self.amplitude_spread > 0.0 {
+                am *= (1.0 + self.amplitude_spread * rng.normal()).max(0.0);
+            }
             add_gaussian_pulse(out, grid, t_n, self.sigma_s, weight * self.amplitude * am);
             n += 1.0;
         }

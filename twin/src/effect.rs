@@ -48,6 +48,11 @@ pub enum Effect {
     },
     /// Random impact timing.
     Slip,
+    /// A spread of the impact strengths (σ of each impact's amplitude relative to the
+    /// mean): what every real bearing's impacts have (Randall & Antoni 2011, §2). A
+    /// term of the base (the first fit adds it), never traced as an effect: read as
+    /// anything else it becomes random bursts or band noise nobody has.
+    StrengthSpread,
     /// Linear speed drift over the record.
     SpeedDrift {
         /// Starting value of the drift (fraction per second), from the evidence.
@@ -126,6 +131,8 @@ pub enum EffectKind {
     LoadZoneModulation,
     /// `slip`.
     Slip,
+    /// `strength_spread`.
+    StrengthSpread,
     /// `speed_drift`.
     SpeedDrift,
     /// `extra_resonance`.
@@ -153,6 +160,7 @@ impl EffectKind {
             EffectKind::HalfOrders => "half_orders",
             EffectKind::LoadZoneModulation => "load_zone_modulation",
             EffectKind::Slip => "slip",
+            EffectKind::StrengthSpread => "strength_spread",
             EffectKind::SpeedDrift => "speed_drift",
             EffectKind::ExtraResonance => "extra_resonance",
             EffectKind::NonlinearStiffness => "nonlinear_stiffness",
@@ -174,6 +182,7 @@ impl Effect {
             Effect::HalfOrders { .. } => EffectKind::HalfOrders,
             Effect::LoadZoneModulation { .. } => EffectKind::LoadZoneModulation,
             Effect::Slip => EffectKind::Slip,
+            Effect::StrengthSpread => EffectKind::StrengthSpread,
             Effect::SpeedDrift { .. } => EffectKind::SpeedDrift,
             Effect::ExtraResonance { .. } => EffectKind::ExtraResonance,
             Effect::NonlinearStiffness { .. } => EffectKind::NonlinearStiffness,
@@ -271,6 +280,7 @@ impl Effect {
                 .collect(),
             Effect::LoadZoneModulation { .. } => vec![("logit_modulation_depth".into(), 0.0)],
             Effect::Slip => vec![("ln_jitter".into(), (0.005f64).ln())],
+            Effect::StrengthSpread => vec![("ln_spread".into(), (0.15f64).ln())],
             Effect::SpeedDrift { initial_per_s, .. } => {
                 vec![("drift_per_s".into(), *initial_per_s)]
             }

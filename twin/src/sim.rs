@@ -201,6 +201,7 @@ impl SimulationSpec {
                 modulation_depth: depth,
                 modulation_hz: mod_hz,
                 jitter: self.jitter,
+                amplitude_spread: 0.0,
                 rate_drift_per_s: self.extra.speed_drift_per_s,
             },
             sinusoid: ShaftSinusoid {

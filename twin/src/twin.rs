@@ -18,6 +18,7 @@
 //! | `shaft_order_tones` | output-side sinusoids at k·f_r: a tone that reaches the sensor by another path than the bearing's contact (a pump's vane pass, a coupling's or gear's mesh), so it loads no rolling element | ln A_k per order |
 //! | `load_zone_modulation` | impact amplitude × (1 − δ + δ(1 + cos 2πf_mod t)/2) | logit δ |
 //! | `slip` | random impact timing, σ = jitter·T | ln jitter |
+//! | `strength_spread` | each impact's amplitude × max(0, 1 + s·z) (base only: the first fit adds it, no tracer proposes it) | ln s |
 //! | `speed_drift` | rate × (1 + d·t) for impacts and shaft terms | d |
 //! | `extra_resonance` | the angular DOF as a second mode driven by the same force | ln f₂, ln ζ₂, ln share |
 //! | `nonlinear_stiffness` | k_NL = ρ·k_r / (1 µm)² (eq. 17) | ln ρ |
@@ -484,6 +485,9 @@ impl TwinModel {
         let jitter = self
             .effect_params(EffectKind::Slip)
             .map_or(0.0, |(_, p)| p[0].value.exp().min(0.2));
+        let spread = self
+            .effect_params(EffectKind::StrengthSpread)
+            .map_or(0.0, |(_, p)| p[0].value.exp().min(1.0));
         let ex = CompositeExcitation {
             impact: ImpactTrain {
                 amplitude: get("ln_impact_amp").map_or(0.0, f64::exp),
@@ -493,6 +497,7 @@ impl TwinModel {
                 modulation_depth: depth,
                 modulation_hz: mod_hz * centre,
                 jitter,
+                amplitude_spread: spread,
                 rate_drift_per_s: drift,
             },
             sinusoid: ShaftSinusoid {
@@ -529,6 +534,7 @@ impl TwinModel {
                 drift,
                 centre,
                 jitter,
+                spread,
             },
             &mut force_r,
             &mut rng,
@@ -559,6 +565,7 @@ impl TwinModel {
             drift,
             centre,
             jitter,
+            spread,
         } = *fc;
         let get = |n: &str| self.get(n);
         // A further modulation of the same impacts (a load that varies at a rate of its
@@ -622,6 +629,7 @@ impl TwinModel {
                     modulation_depth: depth,
                     modulation_hz: mod_hz,
                     jitter: if bearing_defect { jitter } else { 0.0 },
+                    amplitude_spread: if bearing_defect { spread } else { 0.0 },
                     rate_drift_per_s: drift,
                 };
                 train.add_to(grid, 1.0, force_r, rng)?;
@@ -746,8 +754,8 @@ struct Structure {
 }
 
 /// What the forces of one rendering share: the time grid, the seed of the common
-/// random numbers, the drift-centred shaft rate, the drift, the centring factor and
-/// the slip jitter of rolling elements.
+/// random numbers, the drift-centred shaft rate, the drift, the centring factor, the
+/// slip jitter of rolling elements and the spread of their impacts' strengths.
 #[derive(Debug, Clone, Copy)]
 struct ForceContext {
     grid: TimeGrid,
@@ -756,6 +764,7 @@ struct ForceContext {
     drift: f64,
     centre: f64,
     jitter: f64,
+    spread: f64,
 }
 
 /// A unit-variance Gaussian sequence of `n` values for `seed`, generated once per

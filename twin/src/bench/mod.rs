@@ -28,9 +28,9 @@ use std::sync::Mutex;
 /// Seconds per record: the loop's default span (6 s) is all it reads.
 pub const RECORD_SECONDS: f64 = 6.0;
 
-/// Run the loop on one case and score it. A loop error or a panic is the case's
-/// outcome (counted in the report), not the benchmark's end.
-pub fn run_case(case: Case) -> Outcome {
+/// Run the loop with `cfg` on one case and score it. A loop error or a panic is the
+/// case's outcome (counted in the report), not the benchmark's end.
+pub fn run_case(case: Case, cfg: &LoopConfig) -> Outcome {
     let x = synth::synthesize(&case, RECORD_SECONDS);
     let input = LoopInput {
         signal: x.clone(),
@@ -39,7 +39,7 @@ pub fn run_case(case: Case) -> Outcome {
         bearing: case.base.bearing,
         held_runs: None,
     };
-    let result = std::panic::catch_unwind(|| run_loop(&input, &LoopConfig::default()));
+    let result = std::panic::catch_unwind(|| run_loop(&input, cfg));
     match result {
         Ok(Ok((mut report, _))) => {
             note_clipping(&mut report, &x);
@@ -57,12 +57,14 @@ pub fn run_case(case: Case) -> Outcome {
     }
 }
 
-/// Draw `cases` cases from `seed` and run them on `threads` threads; outcomes in case
-/// order. `progress` is called after each case with the number done.
+/// Draw `cases` cases from `seed` and run the loop with `cfg` on them on `threads`
+/// threads; outcomes in case order. `progress` is called after each case with the
+/// number done.
 pub fn run(
     cases: usize,
     seed: u64,
     threads: usize,
+    cfg: &LoopConfig,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Vec<Outcome> {
     let next = AtomicUsize::new(0);
@@ -75,7 +77,7 @@ pub fn run(
                 if id >= cases {
                     break;
                 }
-                let o = run_case(draw_case(id, seed, RECORD_SECONDS));
+                let o = run_case(draw_case(id, seed, RECORD_SECONDS), cfg);
                 if let Ok(mut v) = out.lock() {
                     v[id] = Some(o);
                 }

@@ -42,6 +42,10 @@ pub struct Outcome {
     pub case: Case,
     /// The loop's claims.
     pub claims: Vec<String>,
+    /// The kept effects behind them, with their settings.
+    pub claimed_effects: Vec<Effect>,
+    /// What the first fit completed the base with (`LoopReport::base_terms`).
+    pub base_terms: Vec<String>,
     /// Per injection (in the case's order): whether a claim named it.
     pub found: Vec<bool>,
     /// Per injection: the named frequency's relative error, where both have one.
@@ -76,7 +80,10 @@ pub fn claims(report: &LoopReport) -> Vec<Claim> {
             effect: Some(s.detail.clone()),
         })
         .collect();
-    for (flag, name) in [(report.clipped, "clipping"), (report.dropouts > 0, "dropouts")] {
+    for (flag, name) in [
+        (report.clipped, "clipping"),
+        (report.dropouts > 0, "dropouts"),
+    ] {
         if flag {
             c.push(Claim {
                 name: name.into(),
@@ -151,30 +158,53 @@ pub struct Judged {
     pub base_claims: Vec<String>,
 }
 
-/// Judge `claims` against `case`.
-pub fn judge(case: &Case, claims: &[Claim]) -> Judged {
+/// The modes the first fit completed the base with (`extra_resonance@<f>Hz`), Hz.
+fn base_modes(base_terms: &[String]) -> Vec<f64> {
+    base_terms
+        .iter()
+        .filter_map(|t| {
+            t.strip_prefix("extra_resonance@")?
+                .strip_suffix("Hz")?
+                .parse()
+                .ok()
+        })
+        .collect()
+}
+
+/// Judge `claims` against `case`. An injected mode counts as found where the base took
+/// it too (`base_terms`): one more mode driven by the same impacts is a base with one
+/// more mode, and no record can tell the two apart.
+pub fn judge(case: &Case, claims: &[Claim], base_terms: &[String]) -> Judged {
     let mut j = Judged::default();
+    let modes = base_modes(base_terms);
     for d in &case.injected {
         let naming: Vec<&Claim> = claims.iter().filter(|c| names(c, &d.injection)).collect();
-        j.found.push(!naming.is_empty());
+        let in_base = match &d.injection {
+            Injection::ExtraMode { mode } => {
+                modes.iter().any(|f| near(*f, mode.f_hz, MODE_TOLERANCE))
+            }
+            _ => false,
+        };
+        j.found.push(in_base || !naming.is_empty());
         let named: Vec<f64> = naming
             .iter()
             .filter_map(|c| c.effect.as_ref())
             .flat_map(claimed_frequencies)
             .collect();
-        j.freq_rel_error.push(d.injection.frequency_hz().and_then(|f| {
-            let truths: Vec<f64> = match &d.injection {
-                // A mains claim may name any of its harmonics.
-                Injection::Mains { lines, .. } => {
-                    lines.iter().map(|(h, _)| f * f64::from(*h)).collect()
-                }
-                _ => vec![f],
-            };
-            named
-                .iter()
-                .flat_map(|c| truths.iter().map(move |t| (c / t - 1.0).abs()))
-                .reduce(f64::min)
-        }));
+        j.freq_rel_error
+            .push(d.injection.frequency_hz().and_then(|f| {
+                let truths: Vec<f64> = match &d.injection {
+                    // A mains claim may name any of its harmonics.
+                    Injection::Mains { lines, .. } => {
+                        lines.iter().map(|(h, _)| f * f64::from(*h)).collect()
+                    }
+                    _ => vec![f],
+                };
+                named
+                    .iter()
+                    .flat_map(|c| truths.iter().map(move |t| (c / t - 1.0).abs()))
+                    .reduce(f64::min)
+            }));
     }
     for c in claims {
         if case.injected.iter().any(|d| names(c, &d.injection)) {
@@ -192,9 +222,11 @@ pub fn judge(case: &Case, claims: &[Claim]) -> Judged {
 /// Score one case's report.
 pub fn score(case: Case, report: &LoopReport) -> Outcome {
     let claims = claims(report);
-    let j = judge(&case, &claims);
+    let j = judge(&case, &claims, &report.base_terms);
     let fault_true = case.base.defect.map_or("none", |d| d.name()).to_string();
     Outcome {
+        claimed_effects: claims.iter().filter_map(|c| c.effect.clone()).collect(),
+        base_terms: report.base_terms.clone(),
         claims: claims.into_iter().map(|c| c.name).collect(),
         found: j.found,
         freq_rel_error: j.freq_rel_error,
@@ -216,6 +248,8 @@ pub fn failed(case: Case, error: String) -> Outcome {
     let n = case.injected.len();
     Outcome {
         claims: Vec::new(),
+        claimed_effects: Vec::new(),
+        base_terms: Vec::new(),
         found: vec![false; n],
         freq_rel_error: vec![None; n],
         false_claims: Vec::new(),
@@ -484,9 +518,11 @@ mod tests {
             .into_iter()
             .map(|injection| Drawn { injection, u: 0.5 })
             .collect();
-        let j = judge(&case, claims);
+        let j = judge(&case, claims, &["extra_resonance@1990Hz".to_string()]);
         Outcome {
             claims: claims.iter().map(|c| c.name.clone()).collect(),
+            claimed_effects: Vec::new(),
+            base_terms: Vec::new(),
             found: j.found,
             freq_rel_error: j.freq_rel_error,
             false_claims: j.false_claims,
@@ -503,7 +539,7 @@ mod tests {
     }
 
     /// A control with random bursts claimed counts against the false-claim rate; an
-    /// extra mode is found only at its frequency; slip on a record with a defect and a
+    /// extra mode is found only at its frequency, by a claim or in the base's terms; slip on a record with a defect and a
     /// mode at the base's own are base properties, not false claims; slip on a healthy
     /// record is false.
     #[test]
@@ -527,7 +563,11 @@ mod tests {
         let outs = vec![
             outcome(None, vec![], &[bursts]),
             outcome(None, vec![], &[]),
-            outcome(Some(Defect::OuterRace), vec![mode.clone()], &[res(2030.0), slip.clone()]),
+            outcome(
+                Some(Defect::OuterRace),
+                vec![mode.clone()],
+                &[res(2030.0), slip.clone()],
+            ),
             outcome(Some(Defect::OuterRace), vec![mode.clone()], &[res(3050.0)]),
             outcome(None, vec![mode], &[slip]),
         ];
@@ -535,9 +575,13 @@ mod tests {
         assert_eq!(outs[3].base_claims, ["extra_resonance"]);
         assert_eq!(outs[4].false_claims, ["slip"]);
         let s = summarize(&outs);
-        assert_eq!((s.controls, s.controls_claiming, s.controls_false), (2, 1, 1));
+        assert_eq!(
+            (s.controls, s.controls_claiming, s.controls_false),
+            (2, 1, 1)
+        );
         let (_, t) = s.effects.iter().find(|(n, _)| n == "extra_mode").unwrap();
-        assert_eq!((t.injected[1], t.found[1]), (3, 1));
+        // Found at 2030 Hz by a claim, and (in base terms at 1990 Hz) by every case.
+        assert_eq!((t.injected[1], t.found[1]), (3, 3));
         let get = |n: &str| s.claims.iter().find(|(c, _)| c == n).unwrap().1.clone();
         let r = get("extra_resonance");
         assert_eq!((r.made, r.true_, r.base), (2, 1, 1));

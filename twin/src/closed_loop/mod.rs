@@ -73,6 +73,7 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
     let report = LoopReport {
         fault: fault_name(first.fault).into(),
         fault_evidence: first.fault_evidence,
+        base_terms: first.base_terms,
         params_initial: first.result.model.physical(),
         params_final: st.current.model.physical(),
         effects: st.steps.iter().map(|s| s.effect.clone()).collect(),

@@ -6,14 +6,22 @@ use crate::signature::block_within;
 use crate::twin::Effect;
 use crate::twin::EffectKind;
 
+/// Move of the defect rate between the record's halves (relative) above which the
+/// comb's loss is read as a drift rather than slip.
+const DRIFT_MIN_SHIFT: f32 = 0.0025;
+
 /// Offer slip or a speed drift where the measured comb loses contrast at high
-/// orders against the model's.
+/// orders against the model's. Slip is part of the base where the record shows it
+/// (the first fit completes the base with it): a model that has it washes its own comb
+/// out, so a drift is then offered on the defect rate's move between the record's
+/// halves alone — slip jitters the rate about its mean, a drift moves the mean.
 pub(super) fn trace(ctx: &TraceContext<'_>, out: &mut Vec<Candidate>) {
     let model = ctx.model;
     let fs = ctx.cfg.fs_hz;
     // --- Washed-out defect comb: slip or speed drift.
     if let Some(loc) = model.fault {
-        if !has(model, EffectKind::Slip) && !has(model, EffectKind::SpeedDrift) {
+        if !has(model, EffectKind::SpeedDrift) {
+            let slipping = has(model, EffectKind::Slip);
             let rate = f64::from(model.op.freqs.impact_rate(loc))
                 * (1.0 + model.get("rate_factor").unwrap_or(0.0));
             let cm = comb_contrast(&ctx.meas_psd_db, ctx.cfg, rate);
@@ -25,7 +33,8 @@ pub(super) fn trace(ctx: &TraceContext<'_>, out: &mut Vec<Candidate>) {
                 let high = delta[n - n / 3..n].iter().sum::<f32>() / (n / 3) as f32;
                 // The model's own high teeth must stand out, or there is nothing to wash out.
                 let model_high = cs[n - n / 3..n].iter().sum::<f32>() / (n / 3) as f32;
-                if high - low < -4.0 && model_high > 6.0 {
+                let washed = high - low < -4.0 && model_high > 6.0;
+                if washed || slipping {
                     let band = ctx.cfg.env_band;
                     let half = ctx.x.len() / 2;
                     let fd = rate as f32;
@@ -58,11 +67,13 @@ pub(super) fn trace(ctx: &TraceContext<'_>, out: &mut Vec<Candidate>) {
                     );
                     let strength = 6.0 + (low - high).min(20.0);
                     let half_s = (half as f64 / f64::from(fs)).max(1e-3);
-                    let (effect, summary) = if shift.abs() > 0.0025 {
+                    let (effect, summary) = if shift.abs() > DRIFT_MIN_SHIFT {
                         (
                             Effect::SpeedDrift { initial_per_s: f64::from(shift) / half_s, initial_rate_factor: mean_factor },
                             format!("the defect comb loses {:.1} dB more contrast at high orders than the model, and the defect rate moves by {:+.2} % between the record's halves: the speed drifts", low - high, 100.0 * shift),
                         )
+                    } else if slipping || !washed {
+                        return;
                     } else {
                         (
                             Effect::Slip,
