@@ -43,7 +43,8 @@ pub const MIN_MODULATION_SIDEBANDS: usize = 3;
 /// A sideband lies within 1.5 bins or 1 % of `k·f_d ± f_m` and more than `f_m / 2`
 /// from the tooth (a tooth is not its own sideband); a rate under two bins puts its
 /// sidebands inside the tooth's lobe, and the residual's peaks then sit at the lobe's
-/// flanks, up to 1.5 bins outside `± f_m`.
+/// flanks, up to 1.5 bins outside `± f_m`. A rate that is a known rate plus or minus
+/// another rate found is their product, not a modulation of its own.
 pub fn measured_modulation(
     envelope: &[Component],
     fd: f64,
@@ -52,7 +53,7 @@ pub fn measured_modulation(
     refine: impl Fn(f64) -> Option<f64>,
 ) -> Option<MeasuredModulation> {
     let lines: Vec<&Component> = envelope.iter().filter(|c| c.kind == Kind::Line).collect();
-    envelope
+    let found: Vec<MeasuredModulation> = envelope
         .iter()
         .filter(|c| matches!(c.kind, Kind::Line | Kind::BelowBand) && c.f_hz < 0.5 * fd)
         .filter_map(|low| {
@@ -78,6 +79,26 @@ pub fn measured_modulation(
                 lines: std::iter::once((*low).clone()).chain(side).collect(),
             })
         })
+        .collect();
+    // Two modulations of the same impacts multiply: a load zone at f_r and a pulsation
+    // at f_p put lines at f_r ± f_p too, with sidebands of their own. Such a product
+    // is no modulation of its own: a rate within 1.5 bins of |k ± f| for a known rate
+    // k and another rate f found here is left out (a pulsation at 2.7 Hz on an inner
+    // race at 29.95 Hz was once read at 27.1 Hz).
+    let product = |m: &MeasuredModulation| {
+        found.iter().any(|o| {
+            o.rate_hz < m.rate_hz
+                && known.iter().any(|k| {
+                    [k + o.rate_hz, (k - o.rate_hz).abs()]
+                        .iter()
+                        .any(|p| (m.rate_hz - p).abs() <= 1.5 * dfe)
+                })
+        })
+    };
+    found
+        .iter()
+        .filter(|m| !product(m))
+        .cloned()
         .max_by(|a, b| {
             a.sidebands
                 .cmp(&b.sidebands)
@@ -226,6 +247,21 @@ mod tests {
             measured_modulation(&env, FD, &[29.95], DFE, |f| Some(f + 0.05)).expect("a modulation");
         assert!((m.rate_hz - 4.1).abs() < 1e-9, "{}", m.rate_hz);
         assert_eq!((m.sidebands, m.lines.len()), (6, 7));
+    }
+
+    /// A pulsation at 2.7 Hz on impacts the load zone modulates at the shaft's 29.95 Hz
+    /// puts lines at 2.7 and at 29.95 − 2.7 Hz, each with sidebands (the second with
+    /// more here): the rate is the pulsation's, the other its product with the shaft.
+    #[test]
+    fn a_product_of_two_modulations_is_read_at_the_slower_rate() {
+        let mut env = vec![line(2.7), line(27.25)];
+        for k in 1..=3 {
+            let tooth = f64::from(k) * FD;
+            env.extend([line(tooth - 2.7), line(tooth + 2.7)]);
+            env.extend([line(tooth - 27.25), line(tooth + 27.25), line(tooth + 27.2)]);
+        }
+        let m = measured_modulation(&env, FD, &[29.95], DFE, |_| None).expect("a modulation");
+        assert!((m.rate_hz - 2.7).abs() < 1e-9, "{}", m.rate_hz);
     }
 
     /// A sum has no sidebands: a low line beside an unrelated train's harmonics (a
