@@ -46,6 +46,17 @@ pub enum Effect {
         /// Modulation frequency, Hz (shaft rate for inner race, cage rate for balls).
         mod_hz: f64,
     },
+    /// The radial load zone a rotating race or rolling element passes through (Harris):
+    /// each impact × `q(θ) = (1 − (1 − cos θ)/(2ε))^{3/2}` where positive, 0 outside,
+    /// θ the defect's angle from the load's direction, turning at `mod_hz` (the shaft's
+    /// rate for an inner race, the cage's for a ball). A zone narrower than a turn
+    /// modulates the impacts at the harmonics of its rate too, which a cosine
+    /// modulation ([`Effect::LoadZoneModulation`]) lacks. A term of the base (the first
+    /// fit adds it), never traced.
+    LoadZone {
+        /// The rate the defect turns through the zone at, Hz.
+        mod_hz: f64,
+    },
     /// Random impact timing.
     Slip,
     /// A spread of the impact strengths (σ of each impact's amplitude relative to the
@@ -129,6 +140,8 @@ pub enum EffectKind {
     HalfOrders,
     /// `load_zone_modulation`.
     LoadZoneModulation,
+    /// `load_zone`.
+    LoadZone,
     /// `slip`.
     Slip,
     /// `strength_spread`.
@@ -159,6 +172,7 @@ impl EffectKind {
             EffectKind::ShaftOrderTones => "shaft_order_tones",
             EffectKind::HalfOrders => "half_orders",
             EffectKind::LoadZoneModulation => "load_zone_modulation",
+            EffectKind::LoadZone => "load_zone",
             EffectKind::Slip => "slip",
             EffectKind::StrengthSpread => "strength_spread",
             EffectKind::SpeedDrift => "speed_drift",
@@ -181,6 +195,7 @@ impl Effect {
             Effect::ShaftOrderTones { .. } => EffectKind::ShaftOrderTones,
             Effect::HalfOrders { .. } => EffectKind::HalfOrders,
             Effect::LoadZoneModulation { .. } => EffectKind::LoadZoneModulation,
+            Effect::LoadZone { .. } => EffectKind::LoadZone,
             Effect::Slip => EffectKind::Slip,
             Effect::StrengthSpread => EffectKind::StrengthSpread,
             Effect::SpeedDrift { .. } => EffectKind::SpeedDrift,
@@ -279,6 +294,9 @@ impl Effect {
                 .map(|k| (format!("ln_tone_amp_{k}x"), amp_or(shaft * f64::from(*k))))
                 .collect(),
             Effect::LoadZoneModulation { .. } => vec![("logit_modulation_depth".into(), 0.0)],
+            // ε = ½ (a zone of ±90°, zero clearance) to start; above 1 every angle
+            // carries load (a preload, a heavy rotor), the zone a partial modulation.
+            Effect::LoadZone { .. } => vec![("ln_zone_eps".into(), 0.5f64.ln())],
             Effect::Slip => vec![("ln_jitter".into(), (0.005f64).ln())],
             Effect::StrengthSpread => vec![("ln_spread".into(), (0.15f64).ln())],
             Effect::SpeedDrift { initial_per_s, .. } => {
@@ -377,6 +395,19 @@ pub(crate) struct Start<'a> {
     pub(crate) background: f64,
 }
 
+/// Harris's radial load distribution over a rolling bearing's circumference, relative
+/// to the load's direction: `(1 − (1 − cos θ)/(2ε))^{3/2}` where positive (ball
+/// bearings' exponent 3/2), 0 outside; ε is the load-distribution factor (½: the zone
+/// spans ±90°, zero clearance; smaller: a narrower zone, a bearing with clearance).
+pub fn harris_zone(theta: f64, eps: f64) -> f64 {
+    let q = 1.0 - (1.0 - theta.cos()) / (2.0 * eps.max(1e-3));
+    if q > 0.0 {
+        q.powf(1.5)
+    } else {
+        0.0
+    }
+}
+
 /// Which defect the frequencies point at, by name (`outer_race` …) for reports.
 pub fn fault_name(fault: Option<DefectLocation>) -> &'static str {
     match fault {
@@ -384,5 +415,24 @@ pub fn fault_name(fault: Option<DefectLocation>) -> &'static str {
         Some(DefectLocation::OuterRace) => "outer_race",
         Some(DefectLocation::InnerRace) => "inner_race",
         Some(DefectLocation::Ball) => "ball",
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::harris_zone;
+    use std::f64::consts::PI;
+
+    /// Full load under the load, none from ±90° on for ε = ½, (½)^{3/2} at ±60°; a
+    /// narrower zone (ε = 0.3) ends at ±66.4° (cos θ = 1 − 2ε).
+    #[test]
+    fn the_harris_zone_has_its_textbook_shape() {
+        assert!((harris_zone(0.0, 0.5) - 1.0).abs() < 1e-12);
+        assert!((harris_zone(PI / 3.0, 0.5) - 0.5f64.powf(1.5)).abs() < 1e-12);
+        assert!(harris_zone(PI / 2.0, 0.5) < 1e-12);
+        assert_eq!(harris_zone(PI, 0.5), 0.0);
+        let edge = (1.0f64 - 2.0 * 0.3).acos();
+        assert!(harris_zone(edge - 0.01, 0.3) > 0.0);
+        assert_eq!(harris_zone(edge + 0.01, 0.3), 0.0);
     }
 }

@@ -374,7 +374,9 @@ pub fn on_model_comb(model: &TwinModel, c: &Component, df: f64, span_s: f64) -> 
     let freqs = &model.op.freqs;
     for (e, first) in &model.effects {
         match e {
-            Effect::LoadZoneModulation { mod_hz } => sidebands.push(*mod_hz),
+            Effect::LoadZoneModulation { mod_hz } | Effect::LoadZone { mod_hz } => {
+                sidebands.push(*mod_hz)
+            }
             Effect::SpeedDrift { .. } => drift = model.params[*first].value.abs(),
             Effect::SecondImpactTrain { rate_hz, .. } => combs.push((
                 *rate_hz,

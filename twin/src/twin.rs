@@ -18,6 +18,7 @@
 //! | `shaft_order_tones` | output-side sinusoids at k·f_r: a tone that reaches the sensor by another path than the bearing's contact (a pump's vane pass, a coupling's or gear's mesh), so it loads no rolling element | ln A_k per order |
 //! | `load_zone_modulation` | impact amplitude × (1 − δ + δ(1 + cos 2πf_mod t)/2) | logit δ |
 //! | `slip` | random impact timing, σ = jitter·T | ln jitter |
+//! | `load_zone` | each impact × Harris's zone (1 − (1 − cos θ)/2ε)^{3/2}, θ turning at the shaft (inner race) or cage (ball) rate (base only) | ln ε |
 //! | `strength_spread` | each impact's amplitude × max(0, 1 + s·z) (base only: the first fit adds it, no tracer proposes it) | ln s |
 //! | `speed_drift` | rate × (1 + d·t) for impacts and shaft terms | d |
 //! | `extra_resonance` | the angular DOF as a second mode driven by the same force | ln f₂, ln ζ₂, ln share |
@@ -568,6 +569,16 @@ impl TwinModel {
             spread,
         } = *fc;
         let get = |n: &str| self.get(n);
+        // The base's load zone (Harris): the impacts scaled by where the defect is
+        // in the zone, at the rate it turns through it (following a drift).
+        if let Some((Effect::LoadZone { mod_hz }, p)) = self.effect_params(EffectKind::LoadZone) {
+            let eps = p[0].value.exp();
+            let w = 2.0 * std::f64::consts::PI * centre * mod_hz;
+            for (j, f) in force_r.iter_mut().enumerate() {
+                let t = grid.t0 + j as f64 * grid.dt;
+                *f *= crate::effect::harris_zone(w * (t + 0.5 * drift * t * t), eps);
+            }
+        }
         // A further modulation of the same impacts (a load that varies at a rate of its
         // own, a process pulsation, on top of the load zone the train carries): their
         // amplitudes multiplied by it, in the train's form, at a rate that does not

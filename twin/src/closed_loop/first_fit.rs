@@ -4,7 +4,7 @@
 //! the base completed with what every bearing signal has (issue 32, Randall & Antoni
 //! 2011 §2) where the record shows it: the rolling elements' slip jitter, the spread of
 //! their impacts' strengths and, for a rotating race or a rolling element, its load
-//! zone; and the structure's further modes at the PSD's other peaks. These are the
+//! zone (Harris's, with its harmonics); and the structure's further modes at the PSD's other peaks. These are the
 //! base's terms (`base_terms` in the report, their values in `params_initial`), not
 //! effects: an effect is what a particular machine adds. Only with
 //! `LoopConfig::complete_base` (see there why it is off by default).
@@ -125,7 +125,7 @@ fn complete_base(
         // statement, that no two impacts are alike), each kept on its own gain.
         let mut groups = Vec::new();
         if loc != DefectLocation::OuterRace {
-            groups.push(vec![Effect::LoadZoneModulation {
+            groups.push(vec![Effect::LoadZone {
                 mod_hz: f64::from(s.op.freqs.modulation_rate(loc)),
             }]);
         }

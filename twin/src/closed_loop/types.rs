@@ -123,7 +123,7 @@ pub struct LoopReport {
     pub fault_evidence: serde_json::Map<String, serde_json::Value>,
     /// What the first fit completed the base with, beyond one mode and identical
     /// periodic impacts, where the record showed it: `slip`, `strength_spread`,
-    /// `load_zone_modulation` (the defect's own), `extra_resonance@<f>Hz` (a further
+    /// `load_zone` (Harris's, of an inner race or ball), `extra_resonance@<f>Hz` (a further
     /// mode of the structure). Part of the base, not effects: their values are in
     /// `params_initial`.
     pub base_terms: Vec<String>,

@@ -60,10 +60,10 @@ pub const MAX_MODULATIONS: usize = 2;
 /// The rates, Hz, the model modulates its impacts at.
 pub(crate) fn modulation_rates(model: &TwinModel) -> Vec<f64> {
     model
-        .effects_of(EffectKind::LoadZoneModulation)
-        .into_iter()
+        .effects
+        .iter()
         .filter_map(|(e, _)| match e {
-            Effect::LoadZoneModulation { mod_hz } => Some(*mod_hz),
+            Effect::LoadZoneModulation { mod_hz } | Effect::LoadZone { mod_hz } => Some(*mod_hz),
             _ => None,
         })
         .collect()
