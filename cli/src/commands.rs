@@ -723,14 +723,24 @@ mod tests {
 #[derive(Debug, Clone, clap::Subcommand)]
 pub enum TwinCmd {
     /// Close the loop on a record: fit, residual, trace, add effect, refit, report.
+    #[command(
+        after_help = "Example:\n  pumptwin twin loop --input 105.mat --bearing cwru-6205-de --out out/loop"
+    )]
     Loop(TwinLoopArgs),
     /// Write a single-channel record with one undeclared effect (for trying the loop).
+    #[command(
+        after_help = "Example:\n  pumptwin twin generate --effect slip --strength realistic --out rec.csv"
+    )]
     Generate(TwinGenerateArgs),
     /// Run the loop on the CWRU records and write docs/closed-loop-cwru.md.
+    #[command(
+        after_help = "Example:\n  pumptwin twin cwru-report --data ../shared/data/cwru --out docs/closed-loop-cwru.md"
+    )]
     CwruReport(TwinCwruArgs),
     /// Score the loop on randomized records with undeclared effects.
-    ///
-    /// Example: pumptwin twin bench --cases 100 --seed 1 --out out/bench --doc docs/closed-loop-bench.md
+    #[command(
+        after_help = "Example:\n  pumptwin twin bench --cases 300 --seed 1 --out out/bench --doc docs/closed-loop-bench.md"
+    )]
     Bench(TwinBenchArgs),
 }
 

@@ -42,34 +42,67 @@ struct Cli {
 #[derive(Debug, Subcommand)]
 enum Command {
     /// Inspect data sets.
-    #[command(subcommand)]
+    #[command(
+        subcommand,
+        after_help = "Example:\n  pumptwin data summary --data ../shared/data/cwru"
+    )]
     Data(DataCmd),
     /// Simulate a multi-node record with the 2-DOF bearing model (CSV + PNG plots).
+    #[command(
+        after_help = "Example:\n  pumptwin simulate --fault ir --rpm 1797 --duration 2 --out out/sim"
+    )]
     Simulate(SimulateArgs),
     /// Print (or write) the core's node features and dynamic graphs of a record.
+    #[command(
+        after_help = "Example:\n  pumptwin features --input tests/data/cwru105_1s.csv --fs 12000 --rpm 1797 --bearing cwru-6205-de"
+    )]
     Features(FeaturesArgs),
     /// The closed loop between measurement and the bearing model.
-    #[command(subcommand)]
+    #[command(
+        subcommand,
+        after_help = "Example:\n  pumptwin twin loop --input 105.mat --bearing cwru-6205-de --out out/loop"
+    )]
     Twin(TwinCmd),
     /// Train the DS-STGAT on a protocol's split and evaluate it (writes config.json,
     /// model.bpk, metrics.json).
+    #[command(
+        after_help = "Example:\n  pumptwin train --data ../shared/data/cwru --protocol time-block --out out/train-tb"
+    )]
     Train(TrainArgs),
     /// Evaluate a trained DS-STGAT (burn `model.bpk` or int8 model file) on a
     /// protocol's test side (metrics.json).
+    #[command(
+        after_help = "Example:\n  pumptwin eval --model models/dsstgat-cwru-tb.ptm --data ../shared/data/cwru --protocol time-block --out out/eval-int8"
+    )]
     Eval(EvalArgs),
     /// Score the physical diagnosis, the plain envelope rule and an int8 model on
     /// records of other fault sizes and other rigs (CWRU, MFPT, HIT-SM): the report
     /// `docs/evaluation-generalization.md`.
+    #[command(
+        after_help = "Example:\n  pumptwin eval-generalization --out docs/evaluation-generalization.md"
+    )]
     EvalGeneralization(GeneralizationArgs),
     /// Quantize a trained DS-STGAT to int8 and write the postcard model file, its
     /// golden vectors, parity figures and model card.
+    #[command(
+        after_help = "Example:\n  pumptwin export --model out/train-tb/model.bpk --data ../shared/data/cwru --out models/NAME.ptm"
+    )]
     Export(ExportArgs),
     /// Turn recordings into a candump log packed as an edge sensor map says.
+    #[command(
+        after_help = "Example:\n  pumptwin can-encode --input A.mat B.mat --sensors models/cwru-sensors.toml --out my.log"
+    )]
     CanEncode(CanEncodeArgs),
     /// Diagnose one recording: per-window class and probabilities, majority class.
+    #[command(
+        after_help = "Example:\n  pumptwin predict --input tests/data/cwru105_1s.csv --fs 12000 --rpm 1797 --model models/dsstgat-cwru-tb.ptm"
+    )]
     Predict(PredictArgs),
     /// Train (where missing) and tabulate the DS-STGAT, its ablations and the baselines
     /// on every protocol (markdown + JSON table, radar and ablation charts).
+    #[command(
+        after_help = "Example:\n  pumptwin compare --data ../shared/data/cwru --runs out/runs --out docs/compare"
+    )]
     Compare(CompareArgs),
 }
 
@@ -79,6 +112,7 @@ enum DataCmd {
     /// Records, windows and split sizes of a data directory with a MANIFEST.tsv (CWRU);
     /// for the MFPT and HIT-SM layouts, every record as read (fault, speed, rate,
     /// samples, load or fault size, RMS, kurtosis) or refused.
+    #[command(after_help = "Example:\n  pumptwin data summary --data ../shared/data/hit_sm")]
     Summary(SummaryArgs),
 }
 
