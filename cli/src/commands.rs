@@ -768,7 +768,7 @@ pub struct TwinBenchArgs {
     pub write_case: Option<usize>,
     /// Complete the first fit's base with what every bearing signal has (further
     /// modes, load zone, slip, strength spread): issue 32's faithful base, off by
-    /// default while it costs four of the loop's probes.
+    /// default while it costs a probe and time (see `LoopConfig::complete_base`).
     #[arg(long)]
     pub complete_base: bool,
 }

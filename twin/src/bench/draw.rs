@@ -264,24 +264,41 @@ pub struct Case {
     pub injected: Vec<Drawn>,
 }
 
-/// Kinds of injection, for drawing.
-const KINDS: [&str; 11] = [
-    "mains",
-    "shaft_tones",
-    "mesh_tones",
-    "modulation",
-    "extra_mode",
-    "compound",
-    "speed_drift",
-    "duffing",
-    "bursts",
-    "clipping",
-    "dropouts",
+/// Kinds of injection, for drawing (in this order: the draw depends on it).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Kind {
+    Mains,
+    ShaftTones,
+    MeshTones,
+    Modulation,
+    ExtraMode,
+    Compound,
+    SpeedDrift,
+    Duffing,
+    Bursts,
+    Clipping,
+    Dropouts,
+}
+
+const KINDS: [Kind; 11] = [
+    Kind::Mains,
+    Kind::ShaftTones,
+    Kind::MeshTones,
+    Kind::Modulation,
+    Kind::ExtraMode,
+    Kind::Compound,
+    Kind::SpeedDrift,
+    Kind::Duffing,
+    Kind::Bursts,
+    Kind::Clipping,
+    Kind::Dropouts,
 ];
 
-/// Kinds that act on the impacts and need a defect.
-fn needs_defect(kind: &str) -> bool {
-    matches!(kind, "modulation" | "compound" | "duffing")
+impl Kind {
+    /// Kinds that act on the impacts and need a defect.
+    fn needs_defect(self) -> bool {
+        matches!(self, Kind::Modulation | Kind::Compound | Kind::Duffing)
+    }
 }
 
 struct Draw<'a>(&'a mut Xoshiro128pp);
@@ -323,10 +340,10 @@ pub fn draw_case(id: usize, seed: u64, seconds: f64) -> Case {
     } else {
         2
     };
-    let mut kinds: Vec<&str> = Vec::new();
+    let mut kinds: Vec<Kind> = Vec::new();
     while kinds.len() < n_effects {
         let k = KINDS[d.pick(KINDS.len())];
-        if kinds.contains(&k) || (needs_defect(k) && base.defect.is_none()) {
+        if kinds.contains(&k) || (k.needs_defect() && base.defect.is_none()) {
             continue;
         }
         kinds.push(k);
@@ -336,7 +353,7 @@ pub fn draw_case(id: usize, seed: u64, seconds: f64) -> Case {
         .map(|k| {
             let u = d.u();
             Drawn {
-                injection: draw_injection(k, u, &mut base, seconds, &mut d),
+                injection: draw_injection(*k, u, &mut base, seconds, &mut d),
                 u,
             }
         })
@@ -426,7 +443,7 @@ fn reference_g(b: &Base) -> f64 {
 }
 
 fn draw_injection(
-    kind: &str,
+    kind: Kind,
     u: f64,
     base: &mut Base,
     seconds: f64,
@@ -436,7 +453,7 @@ fn draw_injection(
     let refg = reference_g(base);
     let amp = |db: f64| refg * 10f64.powf(db / 20.0);
     match kind {
-        "mains" => {
+        Kind::Mains => {
             let f0 = [50.0, 60.0][d.pick(2)] * (1.0 + 0.001 * d.lin(-1.0, 1.0));
             let near = d.u() < 1.0 / 3.0;
             if near {
@@ -459,7 +476,7 @@ fn draw_injection(
                 near_shaft_order: near,
             }
         }
-        "shaft_tones" => {
+        Kind::ShaftTones => {
             let a1 = amp(level(u, -35.0, -5.0));
             let mut orders = vec![(1, a1)];
             for k in [2, 3] {
@@ -469,7 +486,7 @@ fn draw_injection(
             }
             Injection::ShaftTones { orders }
         }
-        "mesh_tones" => {
+        Kind::MeshTones => {
             let max_order = ((0.35 * base.fs_hz / shaft) as u32).clamp(6, 40);
             Injection::MeshTones {
                 order: 5 + d.pick((max_order - 4) as usize) as u32,
@@ -477,7 +494,7 @@ fn draw_injection(
                 sideband: d.lin(0.2, 0.5),
             }
         }
-        "modulation" => {
+        Kind::Modulation => {
             let rotating = base.defect == Some(Defect::OuterRace) && d.u() < 0.5;
             Injection::Modulation {
                 f_hz: if rotating {
@@ -488,7 +505,7 @@ fn draw_injection(
                 depth: 0.15 + 0.75 * u,
             }
         }
-        "extra_mode" => {
+        Kind::ExtraMode => {
             let f_hz = loop {
                 let f = d.lin(800.0, 0.42 * base.fs_hz);
                 if base.modes.iter().all(|m| (f / m.f_hz - 1.0).abs() >= 0.15) {
@@ -503,7 +520,7 @@ fn draw_injection(
                 },
             }
         }
-        "compound" => {
+        Kind::Compound => {
             let first = base.defect.unwrap_or(Defect::OuterRace);
             let others: Vec<Defect> = [Defect::OuterRace, Defect::InnerRace, Defect::Ball]
                 .into_iter()
@@ -522,22 +539,22 @@ fn draw_injection(
                 rate_hz: order * shaft * (1.0 + base.rate_factor),
             }
         }
-        "speed_drift" => Injection::SpeedDrift {
+        Kind::SpeedDrift => Injection::SpeedDrift {
             total: d.sign() * (0.003 + 0.037 * u) * seconds / 6.0,
         },
-        "duffing" => Injection::Duffing {
+        Kind::Duffing => Injection::Duffing {
             shift: 0.02 + 0.13 * u,
         },
-        "bursts" => Injection::Bursts {
+        Kind::Bursts => Injection::Bursts {
             rate_hz: d.log(10.0, 150.0),
             f_hz: d.lin(1_500.0, 0.42 * base.fs_hz),
             bandwidth_hz: d.lin(200.0, 800.0),
             level_db: level(u, -25.0, 0.0),
         },
-        "clipping" => Injection::Clipping {
+        Kind::Clipping => Injection::Clipping {
             level: 0.8 - 0.55 * u,
         },
-        "dropouts" => {
+        Kind::Dropouts => {
             let n = (seconds * base.fs_hz) as usize;
             let runs = (0..1 + d.pick(4))
                 .map(|_| {
@@ -547,6 +564,5 @@ fn draw_injection(
                 .collect();
             Injection::Dropouts { runs }
         }
-        other => unreachable!("no injection kind {other}"),
     }
 }

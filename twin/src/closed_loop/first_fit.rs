@@ -2,12 +2,12 @@
 //! model's start (the structure's mode at one of the PSD's peaks, the impacts scaled
 //! to the record's RMS), the defect rate read off the spectral comb, then eq. 10; then
 //! the base completed with what every bearing signal has (issue 32, Randall & Antoni
-//! 2011 §2) where the record shows it: the rolling elements' slip jitter, the spread of
-//! their impacts' strengths and, for a rotating race or a rolling element, its load
-//! zone (Harris's, with its harmonics); and the structure's further modes at the PSD's other peaks. These are the
-//! base's terms (`base_terms` in the report, their values in `params_initial`), not
-//! effects: an effect is what a particular machine adds. Only with
-//! `LoopConfig::complete_base` (see there why it is off by default).
+//! 2011 §2) where the record shows it: the structure's further modes at the PSD's
+//! other peaks, the load zone of a rotating race or a rolling element (Harris's, with
+//! its harmonics), the rolling elements' slip jitter and the spread of their impacts'
+//! strengths. These are the base's terms (`base_terms` in the report, their values in
+//! `params_initial`), not effects: an effect is what a particular machine adds. Only
+//! with `LoopConfig::complete_base` (see there why it is off by default).
 
 use super::setup::Setup;
 use super::types::LoopError;
@@ -68,14 +68,13 @@ pub const MAX_BASE_MODES: usize = 3;
 const MODE_SPACING: f64 = 0.15;
 
 /// Complete the fitted base with the terms every bearing signal has, each kept where it
-/// lowers the fit's cost by the loop's `min_relative_gain` (as an effect must): first
-/// the structure, one mode at a time at the PSD's strongest peaks (each damped at
-/// least [`MIN_BASE_MODE_ZETA`]) (the largest
-/// features of a spectrum; fitted after the impacts' character, a missing mode's
-/// misfit is partly taken up by slip and spread and the mode no longer pays), then the
-/// load zone of a rotating race or rolling element, then slip jitter and strength
-/// spread. Returns the model, the terms
-/// kept and the evaluations spent.
+/// lowers the fit's cost by the loop's `min_relative_gain` (as an effect must). First
+/// the structure, one mode at a time at the PSD's strongest peaks, each damped at least
+/// [`MIN_BASE_MODE_ZETA`]: modes are a spectrum's largest features, and fitted after
+/// the impacts' character a missing mode's misfit is partly taken up by slip and
+/// spread, so the mode no longer pays. Then the load zone of a rotating race or rolling
+/// element, then slip jitter and strength spread. Returns the model, the terms kept and
+/// the evaluations spent.
 fn complete_base(
     s: &Setup<'_>,
     mut current: FitResult,
@@ -157,9 +156,10 @@ fn base_fit_config(s: &Setup<'_>) -> FitConfig {
 /// background force and the impacts 40 % stronger, the better kept — a base fitted
 /// without a load zone has put the modulation's power into the background, and
 /// Levenberg–Marquardt does not always take it back from there (an inner race
-/// modulated 80 %: PSD 5.7 dB from the first start, 0.8 dB from the second). The rate stays pinned where the comb put
-/// it, as in the base (slip added as an effect frees it, for a comb washed out; with
-/// the comb still sharp a free rate walks off it). Returns the better fit and the evaluations spent.
+/// modulated 80 %: PSD 5.7 dB from the first start, 0.8 dB from the second). The rate
+/// stays pinned where the comb put it, as in the base (slip added as an effect frees
+/// it, for a comb washed out; with the comb still sharp a free rate walks off it).
+/// Returns the better fit and the evaluations spent.
 fn fit_with_terms(
     s: &Setup<'_>,
     model: &TwinModel,
@@ -171,6 +171,12 @@ fn fit_with_terms(
         .iter()
         .fold(model.clone(), |m, e| m.with_effect(e.clone(), &no_excess))
         .holding(|_, p| p.name == "rate_factor");
+    let cfg = base_fit_config(s);
+    let a = fit(&start, &s.target, &cfg)?;
+    if !two_starts {
+        let spent = a.evaluations;
+        return Ok((a, spent));
+    }
     let mut theta = start.theta();
     for (i, p) in start.params.iter().enumerate() {
         match p.name.as_str() {
@@ -178,12 +184,6 @@ fn fit_with_terms(
             "ln_impact_amp" => theta[i] += 1.4f64.ln(),
             _ => {}
         }
-    }
-    let cfg = base_fit_config(s);
-    let a = fit(&start, &s.target, &cfg)?;
-    if !two_starts {
-        let spent = a.evaluations;
-        return Ok((a, spent));
     }
     let b = fit(&start.with_theta(&theta), &s.target, &cfg)?;
     let spent = a.evaluations + b.evaluations;
@@ -206,13 +206,20 @@ fn model_excess_db(target: &Target, sig: &Signature, f_hz: f64) -> f32 {
     span.map(|i| target.psd_db[i] - model[i]).sum::<f32>() / n
 }
 
+/// The PSD bins a structure's mode is looked for in: from 1 kHz to two bins below the
+/// compared band's top.
+fn mode_search_bins(target: &Target) -> (usize, usize) {
+    let cfg = &target.cfg;
+    let lo = (1000.0 / (cfg.fs_hz / cfg.psd_n as f32)) as usize;
+    (lo, *cfg.psd_bins().end() - 2)
+}
+
 /// The measured PSD's local maxima above 1 kHz (smoothed over ±3 bins), strongest
 /// first, at most four, Hz.
 fn psd_peaks(target: &Target) -> Vec<f64> {
     let cfg = &target.cfg;
     let db = &target.psd_db;
-    let lo = (1000.0 / (cfg.fs_hz / cfg.psd_n as f32)) as usize;
-    let hi = *cfg.psd_bins().end() - 2;
+    let (lo, hi) = mode_search_bins(target);
     let smooth: Vec<f32> = (0..db.len())
         .map(|k| {
             let a = k.saturating_sub(3);
@@ -291,8 +298,7 @@ fn initial_model(
     let cfg = &target.cfg;
     let mut peaks = psd_peaks(target);
     if peaks.is_empty() {
-        let lo = (1000.0 / (cfg.fs_hz / cfg.psd_n as f32)) as usize;
-        let hi = *cfg.psd_bins().end() - 2;
+        let (lo, hi) = mode_search_bins(target);
         peaks.push(f64::from(cfg.psd_freq((lo + hi) / 2)));
     }
     let rms = f64::from(target.meas.rms);
