@@ -18,7 +18,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/../fuzz"
 
-ALL=(candump_log frame_decode sensor_map_toml dbc model_file csv mat wav)
+ALL=(candump_log frame_decode sensor_map_toml dbc model_file csv mat wav tdms uff)
 TARGETS=("$@")
 [ ${#TARGETS[@]} -eq 0 ] && TARGETS=("${ALL[@]}")
 SECONDS_EACH="${FUZZ_SECONDS:-30}"

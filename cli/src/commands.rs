@@ -10,7 +10,7 @@ use pumptwin_data::featurize::{
     feature_config, fit_norm, window_features, window_graphs, MaskCounts, WINDOW,
 };
 use pumptwin_data::preprocess::{preprocess, PreprocessConfig, MODEL_FS_HZ};
-use pumptwin_data::record::{load_mat_channels, load_recording, Recording};
+use pumptwin_data::record::{load_recording, load_recording_with, names_its_channels, Recording};
 use pumptwin_twin::plot::{line_plot, PlotSpec, Series};
 use pumptwin_twin::signature::welch;
 use pumptwin_twin::sim::{location_name, simulate, SimulationSpec};
@@ -284,8 +284,9 @@ pub fn plot_record(rec: &Recording, dir: &Path, markers: &[(f32, String)]) -> Re
 /// A recording and what a user knows about it, shared by the commands that read one.
 #[derive(Debug, Clone, clap::Args)]
 pub struct RecordArgs {
-    /// Recording (.mat in CWRU layout — or any layout with --var —, .csv with a
-    /// header row, or .wav: channels DE, FE, BA in order, the rate from its header).
+    /// Recording: .mat (CWRU layout, or any with --var), .csv with a header row, .wav
+    /// (channels DE, FE, BA in order), NI .tdms, or universal file .uff/.unv (data
+    /// set 58/58b); rate, units and channel names from the file where it holds them.
     #[arg(long)]
     pub input: PathBuf,
     /// Sampling rate, Hz (else the file's: a CSV's `# fs_hz=` line before its header, a .mat's MANIFEST.tsv entry, a WAV's header).
@@ -297,9 +298,10 @@ pub struct RecordArgs {
     /// Bearing: cwru-6205-de, cwru-6203-fe, or n,d,D,angle_deg.
     #[arg(long, default_value = "cwru-6205-de")]
     pub bearing: String,
-    /// A .mat variable to read as a channel, for a file not in CWRU's layout: NAME
-    /// (channel DE) or CHANNEL=NAME, repeatable (--var DE=acc1 --var FE=acc2); a
-    /// struct's field is STRUCT.FIELD (--var bearing.gs for an MFPT file).
+    /// A file's variable or channel to read as a channel: NAME (channel DE) or
+    /// CHANNEL=NAME, repeatable (--var DE=acc1 --var FE=acc2); a .mat struct's field is
+    /// STRUCT.FIELD (--var bearing.gs for an MFPT file), a TDMS channel its name (or
+    /// GROUP/CHANNEL), a UFF set its first ID line.
     #[arg(long, value_name = "[CHANNEL=]NAME")]
     pub var: Vec<String>,
 }
@@ -324,7 +326,7 @@ impl RecordArgs {
     }
 
     /// The `(channel, variable)` pairs of --var (none: the file's own layout); they
-    /// apply to .mat files only.
+    /// apply to files that name their channels (.mat, .tdms, .uff).
     fn named_channels(&self) -> Result<Vec<(String, String)>> {
         let mut pairs: Vec<(String, String)> = Vec::new();
         for v in &self.var {
@@ -339,13 +341,9 @@ impl RecordArgs {
             );
             pairs.push((channel.to_string(), variable.to_string()));
         }
-        let is_mat = self
-            .input
-            .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case("mat"));
         ensure!(
-            pairs.is_empty() || is_mat,
-            "--var names variables of a .mat file; {} is not one",
+            pairs.is_empty() || names_its_channels(&self.input),
+            "--var names channels of a file that names its own (.mat, .tdms, .uff); {} is not one",
             self.input.display()
         );
         Ok(pairs)
@@ -368,12 +366,8 @@ impl RecordArgs {
         }
         let bearing = parse_bearing(&self.bearing)?;
         let named = self.named_channels()?;
-        let raw = if named.is_empty() {
-            load_recording(&self.input, self.fs, self.rpm)
-        } else {
-            load_mat_channels(&self.input, &named, self.fs, self.rpm)
-        }
-        .with_context(|| format!("load {}", self.input.display()))?;
+        let raw = load_recording_with(&self.input, &named, self.fs, self.rpm)
+            .with_context(|| format!("load {}", self.input.display()))?;
         let rpm = self
             .rpm
             .or(raw.rpm)

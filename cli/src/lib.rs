@@ -18,4 +18,6 @@ pub mod generalization;
 pub mod predict;
 pub mod predict_report;
 pub mod predict_text;
+pub mod report;
+pub mod report_plot;
 pub mod train;

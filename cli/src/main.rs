@@ -13,6 +13,7 @@ use pumptwin::eval::{run_eval, EvalArgs};
 use pumptwin::export::{run_export, ExportArgs};
 use pumptwin::generalization::{run_generalization, GeneralizationArgs};
 use pumptwin::predict::{run_predict, PredictArgs};
+use pumptwin::report::{run_report, ReportArgs};
 use pumptwin::train::{run_train, TrainArgs};
 use pumptwin_data::preprocess::{PreprocessConfig, MODEL_FS_HZ};
 use pumptwin_data::rig_summary::{is_rig_manifest, summarize_rig};
@@ -104,6 +105,13 @@ enum Command {
         after_help = "Example:\n  pumptwin compare --data ../shared/data/cwru --runs out/runs --out docs/compare"
     )]
     Compare(CompareArgs),
+    /// Draw the history of the edge's JSON lines (class and confidence, physics,
+    /// severity, tracked stiffness and damping, health counters) as PNGs and a
+    /// one-page HTML.
+    #[command(
+        after_help = "Example:\n  pumptwin-edge --replay models/demo.log --sensors models/cwru-sensors.toml \\\n      --model models/dsstgat-cwru-tb.ptm --out diagnoses.jsonl\n  pumptwin report --input diagnoses.jsonl --out out/report"
+    )]
+    Report(ReportArgs),
 }
 
 /// `pumptwin data …`
@@ -180,6 +188,7 @@ fn run() -> anyhow::Result<()> {
         Command::CanEncode(args) => run_can_encode(args),
         Command::Predict(args) => run_predict(args),
         Command::Compare(args) => run_compare(args),
+        Command::Report(args) => run_report(args),
     };
     match result {
         Err(e) if is_broken_pipe(&e) => Ok(()),

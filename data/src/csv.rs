@@ -44,6 +44,7 @@
 
 use std::path::Path;
 
+use crate::channels::{g_per_unit, sensor_names, SENSORS};
 use crate::recording::{Channel, Recording};
 
 /// Errors reading a CSV recording.
@@ -337,12 +338,6 @@ fn header_names(header: &str) -> (Option<char>, Vec<String>) {
     (delimiter, names)
 }
 
-/// The sensor names a column may carry (module docs).
-const SENSORS: [&str; 3] = ["DE", "FE", "BA"];
-
-/// Standard gravity, m/s² per g.
-const G_M_PER_S2: f64 = 9.806_65;
-
 /// A column name split into its name and the unit it declares at its end, in
 /// brackets or parentheses (`DE [m/s^2]` → `DE`, `m/s^2`).
 fn split_unit(name: &str) -> (&str, Option<&str>) {
@@ -358,29 +353,6 @@ fn split_unit(name: &str) -> (&str, Option<&str>) {
         }
     }
     (t, None)
-}
-
-/// g per unit of an acceleration unit (`g`, `mg`, `m/s²` in its usual spellings,
-/// `mm/s²`), `None` for anything else.
-fn g_per_unit(unit: &str) -> Option<f64> {
-    let u: String = unit
-        .chars()
-        .filter(|c| !matches!(c, ' ' | '^' | '*' | '·' | '.'))
-        .map(|c| {
-            if c == '²' {
-                '2'
-            } else {
-                c.to_ascii_lowercase()
-            }
-        })
-        .collect();
-    match u.as_str() {
-        "g" | "gn" => Some(1.0),
-        "mg" => Some(1e-3),
-        "m/s2" | "ms-2" | "m/s/s" => Some(1.0 / G_M_PER_S2),
-        "mm/s2" | "mms-2" => Some(1e-3 / G_M_PER_S2),
-        _ => None,
-    }
 }
 
 /// Sensor names (see [`sensor_names`]) and, per column, the factor that brings its
@@ -436,33 +408,6 @@ pub fn declares_sensor_units(path: &Path) -> std::io::Result<bool> {
         .iter()
         .zip(sensor_names(bases))
         .any(|(n, s)| SENSORS.contains(&s.as_str()) && split_unit(n).1.is_some()))
-}
-
-/// The sensor each column names (module docs), or its own name.
-fn sensor_names(names: Vec<String>) -> Vec<String> {
-    // The one sensor the name's tokens name (none, or two different ones: None).
-    let sensor = |n: &str| -> Option<&'static str> {
-        let mut found = n
-            .split(['_', '-', ' ', '.'])
-            .filter_map(|token| SENSORS.into_iter().find(|s| token.eq_ignore_ascii_case(s)));
-        let first = found.next()?;
-        found.all(|s| s == first).then_some(first)
-    };
-    let mapped: Vec<Option<&str>> = names.iter().map(|n| sensor(n)).collect();
-    names
-        .iter()
-        .zip(&mapped)
-        .map(|(n, m)| match m {
-            // Unique among the columns, and no other column already has that name.
-            Some(s)
-                if mapped.iter().filter(|o| *o == m).count() == 1
-                    && !names.iter().any(|o| o == s && o != n) =>
-            {
-                (*s).to_string()
-            }
-            _ => n.clone(),
-        })
-        .collect()
 }
 
 /// Name a recording after its file stem.

@@ -11,6 +11,9 @@
 //! | [`mat`] | MATLAB level-5 `.mat` reader (numeric arrays, structs flattened to `s.field`, char arrays as text) |
 //! | [`csv`] | CSV recordings (header of channel names, one column per channel) |
 //! | [`wav`] | WAV recordings (channels DE, FE, BA, … in order; rate from the header) |
+//! | [`tdms`] | NI TDMS files (our parser: channels, units, `wf_increment` rate) |
+//! | [`uff`] | universal file format data set 58 / 58b time records |
+//! | [`channels`] | a self-describing file's channels → a [`Recording`] (selection, sensor names, units to g, one rate) |
 //! | [`recording`] | [`Recording`]/[`Channel`] and the checks every consumer relies on |
 //! | [`record`] | the CWRU and CSV loaders, [`load_recording`] |
 //! | [`entry`] | a manifest entry → its recording (checksum, file number, rate) |
@@ -31,6 +34,7 @@
 //! windows train and which test.
 #![forbid(unsafe_code)]
 
+pub mod channels;
 pub mod csv;
 pub mod datasets;
 pub mod derived;
@@ -46,8 +50,10 @@ pub mod record;
 pub mod recording;
 pub mod rig_summary;
 pub mod summary;
+pub mod tdms;
 #[cfg(test)]
 mod test_support;
+pub mod uff;
 pub mod wav;
 pub mod windows;
 

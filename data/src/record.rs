@@ -61,6 +61,33 @@ pub enum DataError {
         #[source]
         source: crate::wav::WavError,
     },
+    /// A TDMS file is malformed or holds what this reader does not read.
+    #[error("{}: cannot read as TDMS", path.display())]
+    Tdms {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        #[source]
+        source: crate::tdms::TdmsError,
+    },
+    /// A universal file is malformed or holds no time record.
+    #[error("{}: cannot read as a universal file (data set 58)", path.display())]
+    Uff {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        #[source]
+        source: crate::uff::UffError,
+    },
+    /// A self-describing file's channels do not make one recording.
+    #[error("{}: its channels do not make one recording", path.display())]
+    Channels {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        #[source]
+        source: crate::channels::ChannelsError,
+    },
     /// A sampling rate given for a file that states its own disagrees with it.
     #[error("{}: --fs {given} Hz disagrees with the file's {file} Hz", path.display())]
     RateMismatch {
@@ -75,7 +102,10 @@ pub enum DataError {
     #[error("cannot use the data-set manifest")]
     Manifest(#[from] ManifestError),
     /// The file extension is not one this loader knows.
-    #[error("{}: unsupported file type (expected .mat, .csv or .wav)", path.display())]
+    #[error(
+        "{}: unsupported file type (expected .mat, .csv, .wav, .tdms, or .uff/.unv)",
+        path.display()
+    )]
     UnsupportedFormat {
         /// The file.
         path: PathBuf,
@@ -430,38 +460,100 @@ pub fn load_wav(path: &Path, fs_hz: Option<f32>, rpm: Option<f32>) -> Result<Rec
     Ok(rec)
 }
 
-/// Load a recording, choosing the reader by extension.
+/// Load a TDMS or universal file ([`crate::tdms`], [`crate::uff`]): channels, units
+/// and rate from the file, through [`crate::channels::assemble`] with `selection`
+/// (`(channel, the file's name)` pairs; empty: every channel).
+pub fn load_described(
+    path: &Path,
+    selection: &[(String, String)],
+    fs_hz: Option<f32>,
+    rpm: Option<f32>,
+) -> Result<Recording, DataError> {
+    let bytes = std::fs::read(path).map_err(|source| DataError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let p = || path.to_path_buf();
+    let channels = if has_extension(path, &["tdms"]) {
+        crate::tdms::parse_tdms(&bytes).map_err(|source| DataError::Tdms { path: p(), source })?
+    } else {
+        crate::uff::parse_uff(&bytes).map_err(|source| DataError::Uff { path: p(), source })?
+    };
+    let rec = crate::channels::assemble(&stem_name(path), channels, selection, fs_hz, rpm)
+        .map_err(|source| DataError::Channels { path: p(), source })?;
+    rec.validate()?;
+    Ok(rec)
+}
+
+/// Whether `path` ends in one of `exts` (lower case), in any case.
+fn has_extension(path: &Path, exts: &[&str]) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| exts.iter().any(|x| e.eq_ignore_ascii_case(x)))
+}
+
+/// Whether the file's format names its channels, so that a selection
+/// (`--var CHANNEL=NAME`) can pick them: `.mat` (variables), `.tdms`, `.uff`/`.unv`.
+pub fn names_its_channels(path: &Path) -> bool {
+    has_extension(path, &["mat", "tdms", "uff", "unv"])
+}
+
+/// Load a recording, choosing the reader by extension; `selection` picks and names
+/// channels of a file that names its own ([`names_its_channels`]; empty: the file's
+/// own layout).
 ///
-/// - `.mat` (CWRU layout): `fs_hz` from the caller, else from a `MANIFEST.tsv` beside
-///   the file (or one directory up) that lists it; rpm from the file, else the caller.
+/// - `.mat`: CWRU layout, or the variables `selection` names; `fs_hz` from the
+///   caller, else from a `MANIFEST.tsv` beside the file (or one directory up) that
+///   lists it; rpm from the file, else the caller.
 /// - `.csv`: `fs_hz` and rpm from the caller, else from the file's declaration
 ///   (`# fs_hz=12000 rpm=1797` before the header); both given must agree.
 /// - `.wav`: `fs_hz` from the header (a rate given must agree), rpm from the caller.
+/// - `.tdms`, `.uff`/`.unv`: channels, units and rate from the file (a rate given
+///   must agree), rpm from the caller.
+pub fn load_recording_with(
+    path: &Path,
+    selection: &[(String, String)],
+    fs_hz: Option<f32>,
+    rpm: Option<f32>,
+) -> Result<Recording, DataError> {
+    if !selection.is_empty() && !names_its_channels(path) {
+        return Err(DataError::UnsupportedFormat {
+            path: path.to_path_buf(),
+        });
+    }
+    if has_extension(path, &["mat"]) {
+        if !selection.is_empty() {
+            return load_mat_channels(path, selection, fs_hz, rpm);
+        }
+        let fs_hz = match fs_hz {
+            Some(fs) => fs,
+            None => manifest_fs_hz(path)?.ok_or_else(|| DataError::MissingSamplingRate {
+                path: path.to_path_buf(),
+            })?,
+        };
+        return load_cwru_mat(path, None, fs_hz, rpm);
+    }
+    if has_extension(path, &["csv"]) {
+        return load_csv(path, fs_hz, rpm);
+    }
+    if has_extension(path, &["wav"]) {
+        return load_wav(path, fs_hz, rpm);
+    }
+    if has_extension(path, &["tdms", "uff", "unv"]) {
+        return load_described(path, selection, fs_hz, rpm);
+    }
+    Err(DataError::UnsupportedFormat {
+        path: path.to_path_buf(),
+    })
+}
+
+/// Load a recording in its file's own layout ([`load_recording_with`], no selection).
 pub fn load_recording(
     path: &Path,
     fs_hz: Option<f32>,
     rpm: Option<f32>,
 ) -> Result<Recording, DataError> {
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
-    match ext.as_deref() {
-        Some("mat") => {
-            let fs_hz = match fs_hz {
-                Some(fs) => fs,
-                None => manifest_fs_hz(path)?.ok_or_else(|| DataError::MissingSamplingRate {
-                    path: path.to_path_buf(),
-                })?,
-            };
-            load_cwru_mat(path, None, fs_hz, rpm)
-        }
-        Some("csv") => load_csv(path, fs_hz, rpm),
-        Some("wav") => load_wav(path, fs_hz, rpm),
-        _ => Err(DataError::UnsupportedFormat {
-            path: path.to_path_buf(),
-        }),
-    }
+    load_recording_with(path, &[], fs_hz, rpm)
 }
 
 #[cfg(test)]

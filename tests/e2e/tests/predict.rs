@@ -222,6 +222,52 @@ fn a_wav_of_the_fixture_gives_the_csv_diagnosis() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// The fixture's second as files written by other tools (`scripts/reader-fixtures.py`:
+/// npTDMS 1.13 and pyuff 2.5.8): NI TDMS (two segments, float32, channels "accel DE"…,
+/// rate from `wf_increment`, unit `g`), universal file data set 58 in ASCII (single
+/// precision, 6 significant digits) and 58b binary (double). Each read with its own
+/// rate and names gives the CSV's diagnosis, window by window.
+#[test]
+fn tdms_and_uff_files_of_the_fixture_give_the_csv_diagnosis() {
+    let dir = std::env::temp_dir().join(format!("pumptwin-tdms-uff-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let model = "models/dsstgat-cwru-tb.ptm";
+    let csv = predict(
+        &root().join("tests/data/cwru105_1s.csv"),
+        model,
+        &dir.join("c.json"),
+    );
+    let classes = |r: &serde_json::Value| -> Vec<String> {
+        r["windows"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|w| w["class"].as_str().unwrap().to_string())
+            .collect()
+    };
+    for file in ["cwru105_1s.tdms", "cwru105_1s.uff", "cwru105_1s_58b.uff"] {
+        let r = predict_with_rate(
+            &root().join("tests/data").join(file),
+            None,
+            model,
+            &dir.join("f.json"),
+        );
+        assert_eq!(
+            r["resampled"], false,
+            "{file}: the rate is the file's 12 kHz"
+        );
+        assert_eq!(r["missing_nodes"].as_array().unwrap().len(), 0, "{file}");
+        assert_eq!(r["majority_class"], csv["majority_class"], "{file}");
+        assert_eq!(
+            r["diagnosis"]["fault_type"], csv["diagnosis"]["fault_type"],
+            "{file}"
+        );
+        assert_eq!(r["diagnosis"]["fault_type"], "inner_race", "{file}");
+        assert_eq!(classes(&r), classes(&csv), "{file}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// A MAT level-5 file (little-endian, uncompressed) holding column vectors of doubles
 /// under the given names, as MATLAB's `save -v6` writes them: the 128-byte header, then
 /// one miMATRIX element per variable (array flags, dimensions, name, real part).
