@@ -350,7 +350,7 @@ impl RecordArgs {
     }
 
     /// Load, check and preprocess the record to `rate(fs)` Hz, `fs` its own rate.
-    fn load_at(&self, rate: impl Fn(f32) -> f32) -> Result<LoadedRecord> {
+    pub fn load_at(&self, rate: impl Fn(f32) -> f32) -> Result<LoadedRecord> {
         // The flags first: a bad value is the user's, not the file's.
         if let Some(fs) = self.fs {
             ensure!(
@@ -364,10 +364,24 @@ impl RecordArgs {
                 "--rpm {rpm}: a shaft speed must be finite and > 0 rev/min"
             );
         }
-        let bearing = parse_bearing(&self.bearing)?;
+        parse_bearing(&self.bearing)?;
         let named = self.named_channels()?;
         let raw = load_recording_with(&self.input, &named, self.fs, self.rpm)
             .with_context(|| format!("load {}", self.input.display()))?;
+        self.prepare_at(raw, rate)
+    }
+
+    /// Check and preprocess a recording read elsewhere (e.g. handed over from Python)
+    /// to the model rate, with this record's speed and bearing.
+    pub fn prepare(&self, raw: Recording) -> Result<LoadedRecord> {
+        self.prepare_at(raw, |_| MODEL_FS_HZ)
+    }
+
+    /// [`Self::prepare`] to `rate(fs)` Hz.
+    pub fn prepare_at(&self, raw: Recording, rate: impl Fn(f32) -> f32) -> Result<LoadedRecord> {
+        let bearing = parse_bearing(&self.bearing)?;
+        raw.validate()
+            .with_context(|| format!("{}", self.input.display()))?;
         let rpm = self
             .rpm
             .or(raw.rpm)
@@ -927,33 +941,67 @@ fn write_bench_case(args: &TwinBenchArgs, id: usize) -> Result<()> {
     Ok(())
 }
 
-fn run_twin_loop(args: &TwinLoopArgs) -> Result<()> {
+/// The rate the closed loop reads a record at: its own, or the model rate when above.
+pub fn loop_rate(fs: f32) -> f32 {
+    fs.min(MODEL_FS_HZ)
+}
+
+/// The closed loop on one channel of a loaded record (`input` names it in messages):
+/// `channel` (default DE, else the first), samples times `unit_scale` (g per unit),
+/// the faithful base when `complete_base`. Returns the report, its spectra and the
+/// channel's name: what `pumptwin twin loop` writes, for a library caller too.
+pub fn twin_loop(
+    loaded: &LoadedRecord,
+    input: &str,
+    channel: Option<&str>,
+    unit_scale: f32,
+    complete_base: bool,
+) -> Result<(
+    pumptwin_twin::closed_loop::LoopReport,
+    pumptwin_twin::closed_loop::LoopArtifacts,
+    String,
+)> {
     use pumptwin_twin::closed_loop::{run, LoopConfig, LoopInput};
     let LoadedRecord {
         raw,
         rec,
         rpm,
         bearing,
-    } = args
-        .record
-        // The bearing model runs at any rate from 4 kHz: a record above the model rate
-        // is brought to it (the cost of the fit), one below it is compared at its own
-        // rate and band (min(5 kHz, 0.45·fs)), not refused.
-        .load_at(|fs| fs.min(MODEL_FS_HZ))?;
-    let channel = match &args.channel {
+    } = loaded;
+    let channel = match channel {
         Some(name) => rec
             .channel(name)
-            .with_context(|| format!("no channel {name:?} in {}", args.record.input.display()))?,
+            .with_context(|| format!("no channel {name:?} in {input}"))?,
         None => rec
             .channel("DE")
             .or(rec.channels.first())
             .context("record has no channels")?,
     };
     ensure!(
-        args.unit_scale.is_finite() && args.unit_scale > 0.0,
-        "--unit-scale {}: must be finite and > 0 (g per unit of the samples)",
-        args.unit_scale
+        unit_scale.is_finite() && unit_scale > 0.0,
+        "--unit-scale {unit_scale}: must be finite and > 0 (g per unit of the samples)"
     );
+    let loop_input = LoopInput {
+        signal: channel.samples.iter().map(|v| v * unit_scale).collect(),
+        fs_hz: rec.fs_hz,
+        rpm: *rpm,
+        bearing: *bearing,
+        held_runs: raw
+            .channel(&channel.name)
+            .map(|c| pumptwin_twin::closed_loop::held_runs(&c.samples)),
+    };
+    let cfg = LoopConfig {
+        complete_base,
+        ..LoopConfig::default()
+    };
+    let (mut report, artifacts) = run(&loop_input, &cfg)?;
+    if let Some(c) = raw.channel(&channel.name) {
+        pumptwin_twin::closed_loop::note_clipping(&mut report, &c.samples);
+    }
+    Ok((report, artifacts, channel.name.clone()))
+}
+
+fn run_twin_loop(args: &TwinLoopArgs) -> Result<()> {
     let is_csv = args
         .record
         .input
@@ -970,33 +1018,26 @@ fn run_twin_loop(args: &TwinLoopArgs) -> Result<()> {
             args.record.input.display()
         );
     }
-    let input = LoopInput {
-        signal: channel
-            .samples
-            .iter()
-            .map(|v| v * args.unit_scale)
-            .collect(),
-        fs_hz: rec.fs_hz,
-        rpm,
-        bearing,
-        held_runs: raw
-            .channel(&channel.name)
-            .map(|c| pumptwin_twin::closed_loop::held_runs(&c.samples)),
-    };
-    let cfg = LoopConfig {
-        complete_base: args.complete_base,
-        ..LoopConfig::default()
-    };
-    let (mut report, artifacts) = run(&input, &cfg)?;
-    if let Some(c) = raw.channel(&channel.name) {
-        pumptwin_twin::closed_loop::note_clipping(&mut report, &c.samples);
-    }
+    // The bearing model runs at any rate from 4 kHz: a record above the model rate is
+    // brought to it (the cost of the fit), one below it is compared at its own rate
+    // and band (min(5 kHz, 0.45·fs)), not refused.
+    let loaded = args.record.load_at(loop_rate)?;
+    let (report, artifacts, channel) = twin_loop(
+        &loaded,
+        &args.record.input.display().to_string(),
+        args.channel.as_deref(),
+        args.unit_scale,
+        args.complete_base,
+    )?;
+    let LoadedRecord {
+        raw, rpm, bearing, ..
+    } = &loaded;
+    let (rpm, bearing) = (*rpm, *bearing);
     let f = bearing.frequencies(rpm / 60.0);
     pumptwin_twin::report::write(&args.out, &report, &artifacts, &kinematic_markers(&f))?;
     outln!(
-        "{}: channel {}, fault hypothesis {}",
+        "{}: channel {channel}, fault hypothesis {}",
         raw.name,
-        channel.name,
         report.fault
     );
     if !report.base_terms.is_empty() {

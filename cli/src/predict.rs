@@ -44,7 +44,7 @@ use pumptwin_trainer::training::{load_trained_config, Batch, BatchParts, Network
 /// The model `predict` runs.
 // One per command; boxing the burn network would only add indirection.
 #[allow(clippy::large_enum_variant)]
-enum PredictModel {
+pub enum PredictModel {
     /// An int8 model file, through the core.
     Int8(pumptwin_trainer::export::LoadedModel),
     /// A burn model (any architecture) with its config and normalization.
@@ -53,6 +53,15 @@ enum PredictModel {
         norm: pumptwin_core::features::FeatureNorm,
         net: Network,
     },
+}
+
+impl std::fmt::Debug for PredictModel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Int8(m) => write!(f, "PredictModel::Int8({} classes)", m.classes().len()),
+            Self::Burn { cfg, .. } => write!(f, "PredictModel::Burn({})", cfg.report_name()),
+        }
+    }
 }
 
 /// The class of a window with no usable sensor.
@@ -83,12 +92,40 @@ pub struct PredictArgs {
 /// Run `pumptwin predict`.
 pub fn run_predict(args: &PredictArgs) -> Result<()> {
     pumptwin_trainer::export::check_model_path(&args.model)?;
+    let loaded = args.record.load()?;
+    let model = load_model(&args.model)?;
+    let report = predict(
+        &loaded,
+        &args.record.input.display().to_string(),
+        &model,
+        &args.model.display().to_string(),
+    )?;
+    use std::io::IsTerminal;
+    if args.out.is_none() && !args.json && std::io::stdout().is_terminal() {
+        print!("{}", crate::predict_text::table(&report));
+    } else {
+        write_report(&report, args.out.as_deref())?;
+    }
+    print_summary(&report);
+    Ok(())
+}
+
+/// Diagnose a loaded record (`input` names it in messages and the report) with
+/// `model` (`model_name` in the report): what `pumptwin predict` prints, for a
+/// library caller (the Python package) too.
+pub fn predict(
+    loaded: &LoadedRecord,
+    input: &str,
+    model: &PredictModel,
+    model_name: &str,
+) -> Result<Prediction> {
     let LoadedRecord {
         raw,
         rec,
         rpm,
         bearing,
-    } = args.record.load()?;
+    } = loaded;
+    let rpm = *rpm;
     let cfg = feature_config(rec.fs_hz, rpm / 60.0, bearing.orders());
     let starts: Vec<usize> = (0..)
         .map(|k| k * HOP)
@@ -96,25 +133,21 @@ pub fn run_predict(args: &PredictArgs) -> Result<()> {
         .collect();
     anyhow::ensure!(
         !starts.is_empty(),
-        "{}: {} samples at {} Hz is shorter than one window ({WINDOW})",
-        args.record.input.display(),
+        "{input}: {} samples at {} Hz is shorter than one window ({WINDOW})",
         rec.len(),
         rec.fs_hz
     );
-    // Model-specific normalization, graph and forward.
-    let device = Device::flex();
-    let model = load_model(&args.model, &device)?;
     // The physics on the drive-end sensor, each window read with the shaft
     // revolutions before its end (pumptwin_data::diagnose), with the settings an int8
     // model file ships with (the core's for a burn model).
-    let (thresholds, revolutions) = match &model {
+    let (thresholds, revolutions) = match model {
         PredictModel::Int8(m) => m.file.diagnosis_settings()?,
         PredictModel::Burn { .. } => (Thresholds::DEFAULT, DEFAULT_REVOLUTIONS),
     };
     let shaft_hz = rpm / 60.0;
     let segment = segment_len(rec.fs_hz, shaft_hz, revolutions, WINDOW);
     let physics = diagnose_windows(
-        &rec,
+        rec,
         "DE",
         &starts,
         WINDOW,
@@ -124,25 +157,35 @@ pub fn run_predict(args: &PredictArgs) -> Result<()> {
         &thresholds,
     );
     let input = Input {
-        args,
+        input,
+        model_name,
         fs_hz_input: raw.fs_hz,
-        rec: &rec,
+        rec,
         cfg: &cfg,
         starts: &starts,
         physics: physics.as_deref(),
     };
-    match &model {
+    let device = Device::flex();
+    match model {
         PredictModel::Burn { cfg, .. } if cfg.node_set()? == NodeSet::Derived => {
-            predict_with(&input, &model, &device, DERIVED_NODES)
+            predict_with(&input, model, &device, DERIVED_NODES)
         }
-        _ => predict_with(&input, &model, &device, NODES),
+        _ => predict_with(&input, model, &device, NODES),
     }
+}
+
+/// The int8 model of a model file's bytes (`name` in messages).
+pub fn int8_model(bytes: &[u8], name: &str) -> Result<PredictModel> {
+    Ok(PredictModel::Int8(
+        pumptwin_trainer::export::decode_model_file(bytes, name)?,
+    ))
 }
 
 /// The int8 model file or burn model at `path`. A burn model's config (classes,
 /// graph, architecture, nodes) is read once and its network loaded in inference mode
 /// (batch norm on its running statistics, no dropout).
-fn load_model(path: &Path, device: &Device) -> Result<PredictModel> {
+pub fn load_model(path: &Path) -> Result<PredictModel> {
+    let device = &Device::flex();
     Ok(if is_model_file(path) {
         PredictModel::Int8(load_model_file(path)?)
     } else {
@@ -158,7 +201,10 @@ fn load_model(path: &Path, device: &Device) -> Result<PredictModel> {
 
 /// The recording and its windows, as `predict` prepared them.
 struct Input<'a> {
-    args: &'a PredictArgs,
+    /// The record's name in messages and the report.
+    input: &'a str,
+    /// The model's name in the report.
+    model_name: &'a str,
     fs_hz_input: f32,
     rec: &'a pumptwin_data::record::Recording,
     cfg: &'a pumptwin_core::features::FeatureConfig,
@@ -173,9 +219,10 @@ fn predict_with<const N: usize>(
     model: &PredictModel,
     device: &Device,
     nodes: [&'static str; N],
-) -> Result<()> {
+) -> Result<Prediction> {
     let Input {
-        args,
+        input,
+        model_name,
         fs_hz_input,
         rec,
         cfg,
@@ -188,7 +235,7 @@ fn predict_with<const N: usize>(
         rec: scratch.as_ref().unwrap_or(rec),
         starts: &src_starts,
     };
-    let feats = featurize(&src, &nodes, cfg, starts, &args.record.input)?;
+    let feats = featurize(&src, &nodes, cfg, starts, Path::new(input))?;
     let (classes, norm, graph) = normalization_and_graph::<N>(model)?;
     // The raw samples too, for a raw-signal baseline.
     let with_raw = matches!(model, PredictModel::Burn { net, .. } if net.raw());
@@ -199,9 +246,9 @@ fn predict_with<const N: usize>(
     let majority = majority_class(&class_counts);
     let diagnosis = physics.and_then(|p| record_diagnosis(p, &majority, &class_counts));
     let warnings = warnings(physics, &majority, diagnosis.as_ref());
-    let report = Prediction {
-        input: args.record.input.display().to_string(),
-        model: args.model.display().to_string(),
+    Ok(Prediction {
+        input: input.to_string(),
+        model: model_name.to_string(),
         arch: match model {
             PredictModel::Int8(_) => ARCH_INT8.to_string(),
             PredictModel::Burn { cfg, .. } => cfg.report_name(),
@@ -217,15 +264,7 @@ fn predict_with<const N: usize>(
         class_counts,
         diagnosis,
         warnings,
-    };
-    use std::io::IsTerminal;
-    if args.out.is_none() && !args.json && std::io::stdout().is_terminal() {
-        print!("{}", crate::predict_text::table(&report));
-    } else {
-        write_report(&report, args.out.as_deref())?;
-    }
-    print_summary(&report);
-    Ok(())
+    })
 }
 
 /// The recording the features are read from and its window starts.
@@ -634,7 +673,7 @@ impl LoadedPredictModel {
     pub fn load(path: &Path) -> Result<Self> {
         pumptwin_trainer::export::check_model_path(path)?;
         let device = Device::flex();
-        let model = load_model(path, &device)?;
+        let model = load_model(path)?;
         Ok(Self { model, device })
     }
 

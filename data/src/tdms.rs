@@ -568,8 +568,8 @@ fn channels(state: State) -> Result<Vec<FileChannel>, TdmsError> {
         let increment = o.number("wf_increment").or_else(|| group_increment(group));
         let fs_hz = match increment {
             None => None,
-            // A denormal step would make an infinite rate.
-            Some(dt) if dt > 0.0 && (1.0 / dt).is_finite() => Some(1.0 / dt),
+            // A denormal step would make an infinite rate, an infinite one a zero rate.
+            Some(dt) if dt.is_finite() && dt > 0.0 && (1.0 / dt).is_finite() => Some(1.0 / dt),
             Some(dt) => {
                 return Err(TdmsError::Format {
                     at: 0,

@@ -190,8 +190,8 @@ fn header(lines: &mut Lines<'_>) -> Result<Header, UffError> {
         "ms" => dt * 1e-3,
         u => return Err(unsupported(format!("abscissa unit `{u}`"))),
     };
-    // A denormal step would make an infinite rate.
-    if !(dt > 0.0 && (1.0 / dt).is_finite()) {
+    // A denormal step would make an infinite rate, an infinite one a zero rate.
+    if !(dt.is_finite() && dt > 0.0 && (1.0 / dt).is_finite()) {
         return Err(unsupported(format!("abscissa increment {dt} s")));
     }
     let r9 = lines.text("record 9")?;
@@ -498,6 +498,14 @@ mod tests {
             parse_uff(short.as_bytes()),
             Err(UffError::Unsupported { .. })
         ));
+        // Fuzz finding: an infinite Δt made a zero rate.
+        for dt in ["inf", "1e-320", "0.0", "-1e-4"] {
+            let bad = text.replacen("1.00000e-4", dt, 1);
+            assert!(
+                matches!(parse_uff(bad.as_bytes()), Err(UffError::Unsupported { .. })),
+                "{dt}"
+            );
+        }
         let nan = text.replacen("2.00000e-1", "NaN", 1);
         let ch = parse_uff(nan.as_bytes()).unwrap();
         assert!(crate::channels::assemble("r", ch, &[], None, None).is_err());

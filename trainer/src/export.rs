@@ -364,15 +364,19 @@ pub fn check_model_path(path: &Path) -> Result<()> {
 /// Read, decode and build a model file.
 pub fn load_model_file(path: &Path) -> Result<LoadedModel> {
     let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+    decode_model_file(&bytes, &path.display().to_string())
+}
+
+/// Decode and build a model file's bytes (`name` in messages).
+pub fn decode_model_file(bytes: &[u8], name: &str) -> Result<LoadedModel> {
     let mut file = Box::<ModelFile>::default();
-    model_file::decode_into(&bytes, &mut file)
-        .with_context(|| format!("{} is not a valid model file", path.display()))?;
+    model_file::decode_into(bytes, &mut file)
+        .with_context(|| format!("{name} is not a valid model file"))?;
     let model = InferenceModel::from_model_file(&file)
-        .with_context(|| format!("cannot build the int8 network of {}", path.display()))?;
+        .with_context(|| format!("cannot build the int8 network of {name}"))?;
     ensure!(
         usize::from(file.dims.nodes) == N_NODES && usize::from(file.dims.steps) == STEPS,
-        "{}: the model has N = {}, T = {}; this build runs N = {N_NODES}, T = {STEPS}",
-        path.display(),
+        "{name}: the model has N = {}, T = {}; this build runs N = {N_NODES}, T = {STEPS}",
         file.dims.nodes,
         file.dims.steps
     );
