@@ -28,7 +28,7 @@ use crate::commands::{LoadedRecord, RecordArgs};
 pub use crate::predict_report::{
     PhysicsWindow, Prediction, RecordDiagnosisReport, SeverityReport, WidthReport, WindowPrediction,
 };
-use pumptwin_core::diagnosis::{FaultType, Thresholds};
+use pumptwin_core::diagnosis::{Disagreement, FaultType, Thresholds};
 use pumptwin_data::diagnose::{
     diagnose_windows, segment_len, summarize_record, WindowDiagnosis, DEFAULT_REVOLUTIONS,
 };
@@ -543,19 +543,19 @@ fn warnings(
     }
     let network = fault_type_of_class(majority);
     if let (Some(net), Some(d)) = (network, diagnosis) {
-        let by_physics = d.decided_by == "physics";
-        if by_physics && d.fault_type == "normal" && net != FaultType::Normal {
-            w.push(format!(
+        let physics = FaultType::from_name(d.fault_type);
+        match physics.and_then(|p| Disagreement::of(net, p)) {
+            Some(Disagreement::Unsupported) if d.decided_by == "physics" => w.push(format!(
                 "the network names {majority}, but the drive end shows no defect line and no \
                  impulsiveness: its class is not supported (a machine, speed or noise outside \
                  its training conditions?)"
-            ));
-        } else if by_physics && d.fault_type != "normal" && d.fault_type != net.name() {
-            w.push(format!(
+            )),
+            Some(Disagreement::Different) if d.decided_by == "physics" => w.push(format!(
                 "the network names {majority} ({}), the physics {}: the physics' lines decide",
                 net.name(),
                 d.fault_type
-            ));
+            )),
+            _ => {}
         }
     }
     w
@@ -563,17 +563,7 @@ fn warnings(
 
 /// The physical type a CWRU class name stands for (`IR…`, `OR…`, `B…`, `normal`).
 pub fn fault_type_of_class(class: &str) -> Option<FaultType> {
-    if class.starts_with("IR") {
-        Some(FaultType::InnerRace)
-    } else if class.starts_with("OR") {
-        Some(FaultType::OuterRace)
-    } else if class.starts_with('B') {
-        Some(FaultType::Ball)
-    } else if class == "normal" {
-        Some(FaultType::Normal)
-    } else {
-        None
-    }
+    FaultType::of_class(class)
 }
 
 /// The most frequent class (empty when no window was diagnosed).

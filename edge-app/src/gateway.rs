@@ -113,6 +113,9 @@ pub struct Gateway<'d> {
     human: bool,
     /// Windows per diagnosed class and per physical type, for the closing summary.
     pub tally: crate::report::Tally,
+    /// The network's class of the last window written: the physics that runs on it
+    /// after the line is judged against it on the next line.
+    last_class: Option<(u64, String)>,
 }
 
 impl std::fmt::Debug for Gateway<'_> {
@@ -142,6 +145,7 @@ impl<'d> Gateway<'d> {
             metrics: None,
             human: false,
             tally: crate::report::Tally::default(),
+            last_class: None,
         }
     }
 
@@ -220,11 +224,22 @@ impl<'d> Gateway<'d> {
             };
             self.pacer.wait_for(frame.ts_us);
             let t_frame = std::time::Instant::now();
-            for window in self.pipeline.push(&frame).windows {
+            for mut window in self.pipeline.push(&frame).windows {
                 let diagnosis = match self.diagnoser.as_mut() {
                     Some(d) => Some(d.diagnose(&window)?),
                     None => None,
                 };
+                if let (Some(n), Some(p), Some((m, class))) =
+                    (window.physics.0, &window.physics.1, &self.last_class)
+                {
+                    if n == *m {
+                        window.warnings = crate::report::physics_warnings(n, class, p);
+                    }
+                }
+                self.last_class = diagnosis
+                    .as_ref()
+                    .and_then(|d| d.get("class")?.as_str())
+                    .map(|c| (window.index, c.to_string()));
                 self.tally.add(&window, diagnosis.as_ref());
                 let line = if self.human {
                     crate::report::window_text(&window, diagnosis.as_ref())

@@ -372,6 +372,9 @@ pub struct Window {
     /// [`Pipeline::diagnose_pending`]); `None` when the channel was missing or broken
     /// in that window, or before the first.
     pub physics: (Option<u64>, Option<PhysicsResult>),
+    /// What a reader must not miss about this line (filled by the gateway, which
+    /// knows the network's classes: [`crate::report::physics_warnings`]).
+    pub warnings: Vec<String>,
 }
 
 impl Window {
@@ -973,6 +976,7 @@ impl Pipeline {
             tracking: self.last_tracking,
             health: Health::default(),
             physics: self.last_physics,
+            warnings: Vec::new(),
         };
         self.next_start += HOP as u64;
         self.next_index += 1;

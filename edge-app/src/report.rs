@@ -33,6 +33,9 @@
 //!                                      line; `pumptwin_core::diagnosis`; README, "What
 //!                                      `predict` concludes"); null before the first or
 //!                                      when the channel was missing or broken there
+//!   "warnings": [text, …],             only when there is one: the physics of window n
+//!                                      against the network's class of window n
+//!                                      ([`physics_warnings`])
 //!   "diagnosis": …,                    only with a Diagnoser (`--model`)
 //!   "health": {"frames_total", "used", "duplicate", "out_of_sequence", "unknown_id",
 //!              "other_interface", "malformed",
@@ -120,6 +123,8 @@ struct WindowReport<'a> {
     slow: Ordered<'a, SlowReport<'a>>,
     tracking: serde_json::Value,
     physics: serde_json::Value,
+    #[serde(skip_serializing_if = "<[String]>::is_empty")]
+    warnings: &'a [String],
     #[serde(skip_serializing_if = "Option::is_none")]
     diagnosis: Option<&'a serde_json::Value>,
     health: &'a Health,
@@ -226,6 +231,7 @@ pub fn window_json(
             }),
         },
         physics: physics_json(window.physics.0, window.physics.1.as_ref()),
+        warnings: &window.warnings,
         diagnosis,
         health: &window.health,
     };
@@ -265,7 +271,44 @@ pub fn window_text(window: &Window, diagnosis: Option<&serde_json::Value>) -> St
         (Some(n), Some(Err(e))) => s.push_str(&format!(" | physics #{n}: {e}")),
         _ => s.push_str(" | physics —"),
     }
+    for w in &window.warnings {
+        s.push_str(&format!("\n           warning: {w}"));
+    }
     s
+}
+
+/// The warnings of the physics of window `n` against the network's `class` of the
+/// same window (`pumptwin_core::diagnosis::Disagreement`, the rule `predict` uses):
+/// a fault the drive end does not support (noise, another machine, a wrong speed or
+/// rate), a defect the physics names otherwise, a drive end the physics could not read.
+pub fn physics_warnings(n: u64, class: &str, physics: &PhysicsResult) -> Vec<String> {
+    use pumptwin_core::diagnosis::{Disagreement, FaultType};
+    let d = match physics {
+        Ok(d) => d,
+        Err(e) => {
+            return vec![format!(
+                "window {n}: no physical diagnosis of the drive end ({e}); the network's \
+                 {class} stands alone"
+            )]
+        }
+    };
+    let Some(net) = FaultType::of_class(class) else {
+        return Vec::new();
+    };
+    match Disagreement::of(net, d.fault) {
+        Some(Disagreement::Unsupported) => vec![format!(
+            "window {n}: the network named {class}, but the drive end shows no defect line and \
+             no impulsiveness: its class is not supported (noise, another machine, a wrong \
+             speed or rate?)"
+        )],
+        Some(Disagreement::Different) => vec![format!(
+            "window {n}: the network named {class} ({}), the physics {}: the physics' lines \
+             decide",
+            net.name(),
+            d.fault.name()
+        )],
+        None => Vec::new(),
+    }
 }
 
 /// The class and its confidence in a diagnoser's JSON (`"class"`, `"confidence"`).
@@ -285,6 +328,8 @@ pub struct Tally {
     pub classes: std::collections::BTreeMap<String, u64>,
     /// The physics' type → windows it was computed for.
     pub physics: std::collections::BTreeMap<&'static str, u64>,
+    /// Lines that carried a warning.
+    pub warned: u64,
 }
 
 impl Tally {
@@ -295,6 +340,9 @@ impl Tally {
         }
         if let Some(Ok(d)) = &window.physics.1 {
             *self.physics.entry(d.fault.name()).or_default() += 1;
+        }
+        if !window.warnings.is_empty() {
+            self.warned += 1;
         }
     }
 
@@ -314,8 +362,12 @@ impl Tally {
                 .map(|(k, n)| ((*k).to_string(), *n))
                 .collect(),
         );
+        let warned = match self.warned {
+            0 => String::new(),
+            n => format!("; {n} lines with a warning (network and physics disagree)"),
+        };
         format!(
-            "network classes over {nc} windows: {}; physics over {np}: {}",
+            "network classes over {nc} windows: {}; physics over {np}: {}{warned}",
             if classes.is_empty() {
                 "—".into()
             } else {

@@ -69,8 +69,8 @@ mod width;
 pub use bands::{band_envelope_spectra, band_moments, window_spectrum, BandMoments, BandPlan};
 pub use lines::{line_evidence, BandSpectra};
 pub use types::{
-    Defect, FaultType, LineEvidence, BAND_LO_HZ, HARMONICS, LINES_PER_BAND, MAX_BANDS, MIN_BAND_HZ,
-    SLIP,
+    Defect, Disagreement, FaultType, LineEvidence, BAND_LO_HZ, HARMONICS, LINES_PER_BAND,
+    MAX_BANDS, MIN_BAND_HZ, SLIP,
 };
 pub use width::{entry_exit_delay, Delay, PROMINENCE};
 

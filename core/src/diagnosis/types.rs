@@ -59,6 +59,61 @@ impl FaultType {
     pub fn from_name(name: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|t| t.name() == name)
     }
+
+    /// The type a network's class name stands for: the CWRU size classes `IR…`,
+    /// `OR…`, `B…` and `normal`; `None` for any other name.
+    pub fn of_class(class: &str) -> Option<Self> {
+        if class.starts_with("IR") {
+            Some(FaultType::InnerRace)
+        } else if class.starts_with("OR") {
+            Some(FaultType::OuterRace)
+        } else if class.starts_with('B') {
+            Some(FaultType::Ball)
+        } else if class == "normal" {
+            Some(FaultType::Normal)
+        } else {
+            None
+        }
+    }
+}
+
+/// How a network's type and the physics' type of the same stretch disagree, where it
+/// matters to a reader: what the physics can support decides.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Disagreement {
+    /// The network names a fault where the drive end shows no defect line and no
+    /// impulsiveness: outside its training conditions (noise, another machine, a
+    /// wrong speed or rate), its class is not supported.
+    Unsupported,
+    /// The physics names a defect and the network another type (another defect, or
+    /// normal): the physics' lines decide.
+    Different,
+}
+
+impl Disagreement {
+    /// The disagreement of `network` with `physics`, if any (`NoClearSignature` on
+    /// either side supports or refutes nothing).
+    ///
+    /// ```
+    /// use pumptwin_core::diagnosis::{Disagreement, FaultType::*};
+    /// assert_eq!(Disagreement::of(Ball, Normal), Some(Disagreement::Unsupported));
+    /// assert_eq!(Disagreement::of(Normal, InnerRace), Some(Disagreement::Different));
+    /// assert_eq!(Disagreement::of(InnerRace, OuterRace), Some(Disagreement::Different));
+    /// assert_eq!(Disagreement::of(InnerRace, InnerRace), None);
+    /// assert_eq!(Disagreement::of(InnerRace, NoClearSignature), None);
+    /// assert_eq!(Disagreement::of(Normal, Normal), None);
+    /// ```
+    pub fn of(network: FaultType, physics: FaultType) -> Option<Self> {
+        use FaultType::{Ball, InnerRace, Normal, OuterRace};
+        let defect = |t| matches!(t, InnerRace | OuterRace | Ball);
+        match (network, physics) {
+            (n, Normal) if defect(n) => Some(Self::Unsupported),
+            (n, p) if defect(p) && n != p && n != FaultType::NoClearSignature => {
+                Some(Self::Different)
+            }
+            _ => None,
+        }
+    }
 }
 
 /// A defect family: the lines one defect puts into the squared envelope.
