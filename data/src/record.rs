@@ -300,10 +300,7 @@ pub fn load_cwru_mat(
     fs_hz: f32,
     rpm: Option<f32>,
 ) -> Result<Recording, DataError> {
-    let bytes = std::fs::read(path).map_err(|source| DataError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let bytes = read_file(path)?;
     cwru_mat_from_bytes(path, &bytes, file_number, fs_hz, rpm)
 }
 
@@ -334,6 +331,24 @@ fn numeric_names(mat: &MatFile) -> String {
         .join(", ")
 }
 
+/// The bytes of the file at `path`.
+fn read_file(path: &Path) -> Result<Vec<u8>, DataError> {
+    std::fs::read(path).map_err(|source| DataError::Io {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// A `.mat` file's rate: the one given, else its data set's `MANIFEST.tsv` entry.
+fn mat_rate(path: &Path, fs_hz: Option<f32>) -> Result<f32, DataError> {
+    match fs_hz {
+        Some(fs) => Ok(fs),
+        None => manifest_fs_hz(path)?.ok_or_else(|| DataError::MissingSamplingRate {
+            path: path.to_path_buf(),
+        }),
+    }
+}
+
 /// Load a `.mat` file whatever its layout: each `(channel, variable)` pair names the
 /// numeric vector (a top-level variable, or a struct's field as `struct.field`) that
 /// becomes that channel, e.g. `("DE", "bearing.gs")` for an MFPT file or
@@ -346,20 +361,12 @@ pub fn load_mat_channels(
     fs_hz: Option<f32>,
     rpm: Option<f32>,
 ) -> Result<Recording, DataError> {
-    let fs_hz = match fs_hz {
-        Some(fs) => fs,
-        None => manifest_fs_hz(path)?.ok_or_else(|| DataError::MissingSamplingRate {
-            path: path.to_path_buf(),
-        })?,
-    };
+    let fs_hz = mat_rate(path, fs_hz)?;
     check_positive("fs_hz", fs_hz)?;
     if let Some(r) = rpm {
         check_positive("rpm", r)?;
     }
-    let bytes = std::fs::read(path).map_err(|source| DataError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let bytes = read_file(path)?;
     let mat = read_mat(&bytes).map_err(|source| DataError::Mat {
         path: path.to_path_buf(),
         source,
@@ -437,10 +444,7 @@ pub fn manifest_fs_hz(path: &Path) -> Result<Option<f32>, DataError> {
 
 /// Load a WAV recording ([`crate::wav`]); a rate given must agree with the header's.
 pub fn load_wav(path: &Path, fs_hz: Option<f32>, rpm: Option<f32>) -> Result<Recording, DataError> {
-    let bytes = std::fs::read(path).map_err(|source| DataError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let bytes = read_file(path)?;
     let rec =
         crate::wav::parse_wav(&bytes, &crate::wav::record_name(path), rpm).map_err(|source| {
             DataError::Wav {
@@ -469,10 +473,7 @@ pub fn load_described(
     fs_hz: Option<f32>,
     rpm: Option<f32>,
 ) -> Result<Recording, DataError> {
-    let bytes = std::fs::read(path).map_err(|source| DataError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let bytes = read_file(path)?;
     let p = || path.to_path_buf();
     let channels = if has_extension(path, &["tdms"]) {
         crate::tdms::parse_tdms(&bytes).map_err(|source| DataError::Tdms { path: p(), source })?
@@ -525,12 +526,7 @@ pub fn load_recording_with(
         if !selection.is_empty() {
             return load_mat_channels(path, selection, fs_hz, rpm);
         }
-        let fs_hz = match fs_hz {
-            Some(fs) => fs,
-            None => manifest_fs_hz(path)?.ok_or_else(|| DataError::MissingSamplingRate {
-                path: path.to_path_buf(),
-            })?,
-        };
+        let fs_hz = mat_rate(path, fs_hz)?;
         return load_cwru_mat(path, None, fs_hz, rpm);
     }
     if has_extension(path, &["csv"]) {
