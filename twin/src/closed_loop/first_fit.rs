@@ -84,6 +84,8 @@ fn complete_base(
     let cfg = base_fit_config(s);
     let mut terms = Vec::new();
     let mut evaluations = 0;
+    // The current model's signature, evaluated again only once a mode was kept.
+    let mut current_sig = None;
     for f_hz in psd_peaks(&s.target) {
         if current.model.mode_frequencies().len() >= MAX_BASE_MODES {
             break;
@@ -96,9 +98,16 @@ fn complete_base(
         if taken {
             continue;
         }
-        let (_, _, sig) = evaluate(&current.model, &s.target, &s.fit_cfg)?;
-        evaluations += 1;
-        if model_excess_db(&s.target, &sig, f_hz) < MODE_EXCESS_DB {
+        let sig = match current_sig.take() {
+            Some(sig) => sig,
+            None => {
+                evaluations += 1;
+                evaluate(&current.model, &s.target, &s.fit_cfg)?.2
+            }
+        };
+        let excess = model_excess_db(&s.target, &sig, f_hz);
+        current_sig = Some(sig);
+        if excess < MODE_EXCESS_DB {
             continue;
         }
         let start = current
@@ -116,6 +125,7 @@ fn complete_base(
         if zeta >= MIN_BASE_MODE_ZETA && trial.cost < current.cost * (1.0 - gain) {
             terms.push(format!("extra_resonance@{f_hz:.0}Hz"));
             current = trial;
+            current_sig = None;
         }
     }
     if let Some(loc) = current.model.fault {
