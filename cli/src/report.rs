@@ -95,6 +95,7 @@ pub fn read_history(text: &str) -> History {
     let mut time_of: BTreeMap<u64, f64> = BTreeMap::new();
     let mut physics_seen: BTreeMap<u64, ()> = BTreeMap::new();
     let mut tracking_seen: BTreeMap<u64, ()> = BTreeMap::new();
+    let mut last_window = None;
     for (i, line) in text.lines().enumerate() {
         if line.trim().is_empty() {
             continue;
@@ -116,6 +117,14 @@ pub fn read_history(text: &str) -> History {
             continue;
         };
         let window = v["window"].as_u64();
+        // A window number that goes back is a restarted edge appending to the same
+        // file: a new run, whose windows count from 0 again.
+        if window.is_some() && window < last_window {
+            time_of.clear();
+            physics_seen.clear();
+            tracking_seen.clear();
+        }
+        last_window = window.or(last_window);
         if let Some(w) = window {
             time_of.insert(w, t_s);
         }
@@ -454,9 +463,10 @@ fn html(h: &History, input: &Path, axis: TimeAxis, drawn: &[(&str, &str)]) -> St
 
 /// `pumptwin report`.
 pub fn run_report(args: &ReportArgs) -> Result<()> {
-    let text = std::fs::read_to_string(&args.input)
-        .with_context(|| format!("read {}", args.input.display()))?;
-    let h = read_history(&text);
+    let bytes =
+        std::fs::read(&args.input).with_context(|| format!("read {}", args.input.display()))?;
+    // A damaged byte spoils its line (counted as not read), not the whole history.
+    let h = read_history(&String::from_utf8_lossy(&bytes));
     if h.windows.is_empty() {
         let why = h
             .bad_lines
@@ -523,6 +533,28 @@ not json
         let lines = health_lines(&h, axis);
         let names: Vec<&str> = lines.iter().map(|l| l.label.as_str()).collect();
         assert_eq!(names, ["degraded_windows", "malformed", "windows"]);
+    }
+
+    /// A restarted edge appending to the same file counts its windows from 0 again:
+    /// its physics and tracking are a new run's, not duplicates; a value no chart can
+    /// place (review finding: 3.3e38 hung plotters' tick search) is left out.
+    #[test]
+    fn a_restarted_run_is_read_and_huge_values_do_not_hang_the_plots() {
+        let twice = format!("{LINES}{LINES}");
+        let h = read_history(&twice);
+        assert_eq!(h.windows.len(), 6);
+        assert_eq!((h.physics.len(), h.tracking.len()), (2, 2));
+        let huge = LINES.replace(r#""stiffness_rel":0.9"#, r#""stiffness_rel":3.3e38"#);
+        let dir = std::env::temp_dir().join(format!("pumptwin-report-huge-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let input = dir.join("d.jsonl");
+        std::fs::write(&input, huge).unwrap();
+        run_report(&ReportArgs {
+            input,
+            out: dir.join("out"),
+        })
+        .unwrap();
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]

@@ -66,10 +66,17 @@ fn draw_err(path: &Path) -> impl Fn(&dyn std::fmt::Display) -> anyhow::Error + '
     move |e| anyhow!("cannot draw {}: {e}", path.display())
 }
 
-/// The finite range of values, widened when it is a point.
+/// Whether a chart can place `v`: finite and within ±1e30 (beyond, the axis' padding
+/// overflows f32 and plotters' search for tick marks never ends). A value past it is
+/// left out of the plot, as a non-finite one is.
+fn drawable(v: f32) -> bool {
+    v.is_finite() && v.abs() <= 1e30
+}
+
+/// The drawable range of values, widened when it is a point.
 fn range(values: impl Iterator<Item = f32>) -> Option<(f32, f32)> {
     let (lo, hi) = values
-        .filter(|v| v.is_finite())
+        .filter(|&v| drawable(v))
         .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), v| {
             (a.min(v), b.max(v))
         });
@@ -120,7 +127,7 @@ pub fn draw_lines(
             .points
             .iter()
             .copied()
-            .filter(|(x, y)| x.is_finite() && y.is_finite());
+            .filter(|&(x, y)| drawable(x) && drawable(y));
         let anno = match l.style {
             Style::Dots => chart
                 .draw_series(finite.map(|p| Circle::new(p, 3, color.filled())))
@@ -198,7 +205,7 @@ pub fn draw_categories(path: &Path, title: &str, x_label: &str, points: &[Catego
             .draw_series(
                 points
                     .iter()
-                    .filter(|p| p.name == *name)
+                    .filter(|p| p.name == *name && drawable(p.x))
                     .map(|p| Circle::new((p.x, row(&p.name)), 3, color.filled())),
             )
             .map_err(|e| err(&e))?;
@@ -220,7 +227,7 @@ pub fn draw_categories(path: &Path, title: &str, x_label: &str, points: &[Catego
         conf.draw_series(
             points
                 .iter()
-                .filter(|p| p.name == *name && p.confidence.is_finite())
+                .filter(|p| p.name == *name && drawable(p.x) && p.confidence.is_finite())
                 .map(|p| Circle::new((p.x, p.confidence), 2, color.filled())),
         )
         .map_err(|e| err(&e))?;

@@ -97,6 +97,12 @@ pub enum ChannelsError {
         /// Its length.
         len_b: usize,
     },
+    /// Two channels carry the same name (e.g. two UFF sets with the same ID line).
+    #[error("two channels are named `{0}`: name them apart (--var picks by the file's name)")]
+    Duplicate(String),
+    /// A channel holds no sample.
+    #[error("channel `{0}` holds no sample")]
+    Empty(String),
     /// A sample is NaN or infinite.
     #[error("channel `{channel}`: non-finite sample at index {index}")]
     NonFinite {
@@ -226,8 +232,9 @@ fn common_rate(channels: &[FileChannel], given: Option<f32>) -> Result<f32, Chan
         (Some(g), Some((_, f))) if (f64::from(g) - f).abs() > 1e-3 * f => {
             Err(ChannelsError::RateMismatch { given: g, file: f })
         }
-        (Some(g), _) => Ok(g),
-        (None, Some((_, f))) => Ok(f as f32),
+        // A rate given that agrees with the file's confirms it; the file's stands.
+        (_, Some((_, f))) => Ok(f as f32),
+        (Some(g), None) => Ok(g),
         (None, None) => Err(ChannelsError::MissingRate),
     }
 }
@@ -271,6 +278,14 @@ pub fn assemble(
 ) -> Result<Recording, ChannelsError> {
     if channels.is_empty() {
         return Err(ChannelsError::NoChannels);
+    }
+    for (i, c) in channels.iter().enumerate() {
+        if c.samples.is_empty() {
+            return Err(ChannelsError::Empty(c.name.clone()));
+        }
+        if channels[..i].iter().any(|o| o.name == c.name) {
+            return Err(ChannelsError::Duplicate(c.name.clone()));
+        }
     }
     let chosen = select(channels, selection)?;
     let fs_hz = common_rate(&chosen, fs_hz)?;
@@ -378,5 +393,17 @@ mod tests {
             assemble("r", vec![], &[], Some(1.0), None),
             Err(ChannelsError::NoChannels)
         );
+        let a = ch("DE", None, Some(1000.0), &[0.0, 1.0]);
+        assert_eq!(
+            assemble("r", vec![a.clone(), a.clone()], &[], None, None),
+            Err(ChannelsError::Duplicate("DE".into()))
+        );
+        assert_eq!(
+            assemble("r", vec![ch("DE", None, Some(1.0), &[])], &[], None, None),
+            Err(ChannelsError::Empty("DE".into()))
+        );
+        // A rate given within 0.1 % confirms the file's, which stands.
+        let r = assemble("r", vec![a], &[], Some(1000.5), None).unwrap();
+        assert_eq!(r.fs_hz, 1000.0);
     }
 }

@@ -101,6 +101,16 @@ pub enum DataError {
     /// The manifest is malformed.
     #[error("cannot use the data-set manifest")]
     Manifest(#[from] ManifestError),
+    /// Channels were selected by name in a file that does not name its channels.
+    #[error(
+        "{}: channels are selected by name only in files that name them (.mat, .tdms, \
+         .uff/.unv); a CSV names its columns in its header, a WAV file its channels by order",
+        path.display()
+    )]
+    NoChannelNames {
+        /// The file.
+        path: PathBuf,
+    },
     /// The file extension is not one this loader knows.
     #[error(
         "{}: unsupported file type (expected .mat, .csv, .wav, .tdms, or .uff/.unv)",
@@ -518,7 +528,7 @@ pub fn load_recording_with(
     rpm: Option<f32>,
 ) -> Result<Recording, DataError> {
     if !selection.is_empty() && !names_its_channels(path) {
-        return Err(DataError::UnsupportedFormat {
+        return Err(DataError::NoChannelNames {
             path: path.to_path_buf(),
         });
     }

@@ -277,6 +277,9 @@ struct State {
     list: Vec<(usize, Option<Index>)>,
     /// Position in `list` by object index.
     in_list: HashMap<usize, usize>,
+    /// The list's objects with data and their chunk size (`None`: to be computed
+    /// from `list` again, after new metadata).
+    data_objects: Option<(Vec<(usize, Index)>, u64)>,
 }
 
 impl State {
@@ -308,6 +311,7 @@ impl State {
 
 /// Read a segment's metadata into the state.
 fn metadata(c: &mut Cursor<'_>, state: &mut State, new_list: bool) -> Result<(), TdmsError> {
+    state.data_objects = None;
     if new_list {
         state.list.clear();
         state.in_list.clear();
@@ -373,15 +377,22 @@ fn raw_data(
     end: usize,
     interleaved: bool,
 ) -> Result<(), TdmsError> {
-    let data: Vec<(usize, Index)> = state
-        .list
-        .iter()
-        .filter_map(|&(k, i)| i.filter(|i| i.count > 0).map(|i| (k, i)))
-        .collect();
-    let chunk: u64 = data
-        .iter()
-        .map(|(_, i)| i.count.saturating_mul(i.kind.size() as u64))
-        .fold(0u64, u64::saturating_add);
+    // The data objects and the chunk size change only with the metadata: computed
+    // once per object list, not per segment (a file of many segments without
+    // metadata stays linear in its size).
+    let (data, chunk) = state.data_objects.get_or_insert_with(|| {
+        let data: Vec<(usize, Index)> = state
+            .list
+            .iter()
+            .filter_map(|&(k, i)| i.filter(|i| i.count > 0).map(|i| (k, i)))
+            .collect();
+        let chunk = data
+            .iter()
+            .map(|(_, i)| i.count.saturating_mul(i.kind.size() as u64))
+            .fold(0u64, u64::saturating_add);
+        (data, chunk)
+    });
+    let (data, chunk) = (&*data, *chunk);
     let len = (end - c.at) as u64;
     if chunk == 0 {
         return if len == 0 {
@@ -408,13 +419,13 @@ fn raw_data(
     for _ in 0..len / chunk {
         if interleaved {
             for _ in 0..data[0].1.count {
-                for &(k, i) in &data {
+                for &(k, i) in data {
                     let v = c.value(i.kind)?;
                     state.objects[k].data.push(v as f32);
                 }
             }
         } else {
-            for &(k, i) in &data {
+            for &(k, i) in data {
                 for _ in 0..i.count {
                     let v = c.value(i.kind)?;
                     state.objects[k].data.push(v as f32);
@@ -422,8 +433,10 @@ fn raw_data(
             }
         }
     }
-    for &(k, _) in &data {
-        state.objects[k].had_data = true;
+    if len > 0 {
+        for &(k, _) in data {
+            state.objects[k].had_data = true;
+        }
     }
     Ok(())
 }
@@ -454,12 +467,18 @@ fn segment(c: &mut Cursor<'_>, state: &mut State) -> Result<usize, TdmsError> {
     let left = (c.bytes.len() - lead_end) as u64;
     // All ones: a segment the writer never finished; its data runs to the end.
     let seg_len = if next == u64::MAX { left } else { next };
-    if seg_len > left || raw > seg_len {
+    if seg_len > left {
         return Err(TdmsError::Truncated {
             at: lead_end,
             what: "a segment",
-            need: seg_len.max(raw),
+            need: seg_len,
             left: left as usize,
+        });
+    }
+    if raw > seg_len {
+        return Err(TdmsError::Format {
+            at: start + 20,
+            reason: format!("raw data at offset {raw}, past the segment's end ({seg_len})"),
         });
     }
     let end = lead_end + seg_len as usize;
@@ -546,7 +565,9 @@ fn channels(state: State) -> Result<Vec<FileChannel>, TdmsError> {
                 what: "raw data on a root or group object".into(),
             });
         };
-        if o.has("NI_Number_Of_Scales") {
+        // NI's scaling properties describe raw counts unless the data says it is
+        // scaled already.
+        if o.has("NI_Number_Of_Scales") && o.text("NI_Scaling_Status") != Some("scaled") {
             return Err(TdmsError::Unsupported {
                 object: o.path.clone(),
                 what: "raw counts with NI scaling properties (export scaled data)".into(),
@@ -791,6 +812,27 @@ mod tests {
             parse_tdms(&scaled.bytes()),
             Err(TdmsError::Unsupported { .. })
         ));
+        // Scaling properties on data that says it is scaled already are no obstacle.
+        let already = Seg {
+            toc: TOC_META | TOC_RAW | TOC_NEW_LIST,
+            objects: vec![(
+                "/'a'/'c'".into(),
+                Some((10, 1)),
+                vec![
+                    ("NI_Number_Of_Scales".into(), 7, 2u32.to_le_bytes().to_vec()),
+                    str_prop("NI_Scaling_Status", "scaled"),
+                ],
+            )],
+            raw: 0.5f64.to_le_bytes().to_vec(),
+        };
+        assert_eq!(parse_tdms(&already.bytes()).unwrap()[0].samples, [0.5]);
+        // A count with no raw bytes: no data, not an empty channel.
+        let none = Seg {
+            toc: TOC_META | TOC_RAW | TOC_NEW_LIST,
+            objects: vec![("/'a'/'c'".into(), Some((9, 4)), vec![])],
+            raw: vec![],
+        };
+        assert!(parse_tdms(&none.bytes()).unwrap().is_empty());
         let ragged = Seg {
             toc: TOC_META | TOC_RAW | TOC_NEW_LIST,
             objects: vec![("/'a'/'c'".into(), Some((9, 2)), vec![])],

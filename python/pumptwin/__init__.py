@@ -48,7 +48,9 @@ def read(path, fs: Optional[float] = None, rpm: Optional[float] = None,
 
     ``var`` maps channels to the file's own names (``{"DE": "acc_drive_end"}``), as
     ``--var DE=acc_drive_end``. Returns ``{"name", "fs_hz", "rpm", "channels"}``
-    with ``channels`` a dict of float32 numpy arrays (in g).
+    with ``channels`` a dict of float32 numpy arrays: the sensor channels DE, FE, BA
+    in g where the file gives their unit (else as stored, taken as g), any other
+    channel as stored.
     """
     pairs = list((var or {}).items())
     name, fs_hz, file_rpm, channels = _native.read(str(path), fs, rpm, pairs)

@@ -35,7 +35,7 @@ mod _native {
     /// A recording from channel names and their samples laid end to end (f32 LE).
     fn recording(names: Vec<String>, data: &[u8], fs: f32, rpm: f32) -> PyResult<Recording> {
         let n_ch = names.len();
-        if n_ch == 0 || data.len() % (4 * n_ch) != 0 {
+        if n_ch == 0 || data.is_empty() || data.len() % (4 * n_ch) != 0 {
             return Err(PyValueError::new_err(format!(
                 "{} bytes are not {n_ch} channels of float32 samples",
                 data.len()
