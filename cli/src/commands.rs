@@ -368,7 +368,8 @@ impl RecordArgs {
         let named = self.named_channels()?;
         let raw = load_recording_with(&self.input, &named, self.fs, self.rpm)
             .with_context(|| format!("load {}", self.input.display()))?;
-        self.prepare_at(raw, rate)
+        // Every loader has validated what it read.
+        self.preprocess_at(raw, rate)
     }
 
     /// Check and preprocess a recording read elsewhere (e.g. handed over from Python)
@@ -379,9 +380,14 @@ impl RecordArgs {
 
     /// [`Self::prepare`] to `rate(fs)` Hz.
     pub fn prepare_at(&self, raw: Recording, rate: impl Fn(f32) -> f32) -> Result<LoadedRecord> {
-        let bearing = parse_bearing(&self.bearing)?;
         raw.validate()
             .with_context(|| format!("{}", self.input.display()))?;
+        self.preprocess_at(raw, rate)
+    }
+
+    /// A valid recording with this record's speed and bearing, at `rate(fs)` Hz.
+    fn preprocess_at(&self, raw: Recording, rate: impl Fn(f32) -> f32) -> Result<LoadedRecord> {
+        let bearing = parse_bearing(&self.bearing)?;
         let rpm = self
             .rpm
             .or(raw.rpm)

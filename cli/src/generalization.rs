@@ -353,7 +353,7 @@ fn envelope_rule(x: &[f32], fs: f32, shaft: f32, o: &DefectOrders) -> FaultType 
 
 /// The type a CWRU class name stands for (`no_clear_signature` for any other name).
 fn class_type(class: &str) -> FaultType {
-    crate::predict::fault_type_of_class(class).unwrap_or(FaultType::NoClearSignature)
+    FaultType::of_class(class).unwrap_or(FaultType::NoClearSignature)
 }
 
 fn score_case(

@@ -488,7 +488,7 @@ fn record_diagnosis(
 ) -> Option<RecordDiagnosisReport> {
     let r = summarize_record(physics)?;
     let decisive = r.fault != FaultType::NoClearSignature;
-    let network = fault_type_of_class(majority);
+    let network = FaultType::of_class(majority);
     let (fault, decided_by, confidence) = match network {
         Some(t) if !decisive => {
             let total: usize = class_counts.values().sum();
@@ -541,7 +541,7 @@ fn warnings(
             physics.len()
         ));
     }
-    let network = fault_type_of_class(majority);
+    let network = FaultType::of_class(majority);
     if let (Some(net), Some(d)) = (network, diagnosis) {
         let physics = FaultType::from_name(d.fault_type);
         match physics.and_then(|p| Disagreement::of(net, p)) {
@@ -559,11 +559,6 @@ fn warnings(
         }
     }
     w
-}
-
-/// The physical type a CWRU class name stands for (`IR…`, `OR…`, `B…`, `normal`).
-pub fn fault_type_of_class(class: &str) -> Option<FaultType> {
-    FaultType::of_class(class)
 }
 
 /// The most frequent class (empty when no window was diagnosed).

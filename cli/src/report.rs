@@ -15,7 +15,7 @@
 //! A line that is not a JSON object or has no time is counted and reported, never
 //! silently skipped; a file with no readable line is an error.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -93,8 +93,8 @@ pub struct History {
 pub fn read_history(text: &str) -> History {
     let mut h = History::default();
     let mut time_of: BTreeMap<u64, f64> = BTreeMap::new();
-    let mut physics_seen: BTreeMap<u64, ()> = BTreeMap::new();
-    let mut tracking_seen: BTreeMap<u64, ()> = BTreeMap::new();
+    let mut physics_seen: BTreeSet<u64> = BTreeSet::new();
+    let mut tracking_seen: BTreeSet<u64> = BTreeSet::new();
     let mut last_window = None;
     for (i, line) in text.lines().enumerate() {
         if line.trim().is_empty() {
@@ -147,13 +147,13 @@ pub fn read_history(text: &str) -> History {
         };
         let p = &v["physics"];
         if let (Some(ft), Some(w)) = (p["fault_type"].as_str(), p["window"].as_u64()) {
-            if physics_seen.insert(w, ()).is_none() {
+            if physics_seen.insert(w) {
                 h.physics.push(physics_point(p, ft, at(&p["window"])));
             }
         }
         let tr = &v["tracking"];
         if let (Some("updated"), Some(w)) = (tr["status"].as_str(), tr["window"].as_u64()) {
-            if tracking_seen.insert(w, ()).is_none() {
+            if tracking_seen.insert(w) {
                 h.tracking.push(TrackingPoint {
                     t_s: at(&tr["window"]),
                     stiffness_rel: tr["stiffness_rel"].as_f64().unwrap_or(f64::NAN),
