@@ -85,8 +85,7 @@ def predict(signal: Union[Signal, Mapping[str, Signal]], fs: float, rpm: float,
     return json.loads(text)
 
 
-def twin_loop(signal: Signal, fs: float, rpm: float, bearing: str = "cwru-6205-de",
-              complete_base: bool = False) -> dict:
+def twin_loop(signal: Signal, fs: float, rpm: float, bearing: str = "cwru-6205-de") -> dict:
     """The closed loop between the record and the bearing model (``pumptwin twin loop``).
 
     Returns ``{"report": dict, "spectra": dict of numpy arrays}``: the report the
@@ -96,6 +95,5 @@ def twin_loop(signal: Signal, fs: float, rpm: float, bearing: str = "cwru-6205-d
     ``psd_final_db``, ``env_freq_hz``, ``env_measured``, ``env_initial``,
     ``env_final``.
     """
-    text, spectra = _native.twin_loop(_f32_bytes(signal), float(fs), float(rpm), bearing,
-                                      bool(complete_base))
+    text, spectra = _native.twin_loop(_f32_bytes(signal), float(fs), float(rpm), bearing)
     return {"report": json.loads(text), "spectra": {k: _array(v) for k, v in spectra}}

@@ -131,7 +131,6 @@ mod _native {
     /// measured, first fit and final (dB re the measured median), envelope frequency,
     /// measured, first fit and final (linear).
     #[pyfunction]
-    #[pyo3(signature = (data, fs, rpm, bearing, complete_base=false))]
     #[allow(clippy::type_complexity)]
     fn twin_loop<'py>(
         py: Python<'py>,
@@ -139,7 +138,6 @@ mod _native {
         fs: f32,
         rpm: f32,
         bearing: &str,
-        complete_base: bool,
     ) -> PyResult<(String, Vec<(String, Bound<'py, PyBytes>)>)> {
         use pumptwin_twin::closed_loop::{envelope_pairs, psd_pairs};
         let raw = recording(vec!["DE".into()], data, fs, rpm)?;
@@ -147,7 +145,7 @@ mod _native {
         let (json, series) = py
             .detach(|| {
                 let loaded = args.prepare_at(raw, loop_rate)?;
-                let (report, art, _) = run_loop(&loaded, "<python>", None, 1.0, complete_base)?;
+                let (report, art, _) = run_loop(&loaded, "<python>", None, 1.0)?;
                 let psd_i = psd_pairs(&art, &art.initial);
                 let psd_f = psd_pairs(&art, &art.final_);
                 let env_i = envelope_pairs(&art, &art.initial);

@@ -50,16 +50,6 @@ pub struct LoopConfig {
     /// past it). 880 keeps the twelve CWRU loops under 10 s each on that core, with a
     /// tenth to spare for a slower hour of the VM (9.3 s at most, fifteenth session).
     pub max_evaluations: usize,
-    /// Complete the first fit's base with what every bearing signal has, where the
-    /// record shows it (issue 32): further modes, Harris's load zone of a rotating race
-    /// or rolling element, slip jitter and strength spread, reported as `base_terms`
-    /// rather than effects. Off by default: on, vane tones added to CWRU 234 are read
-    /// as a force (`shaft_harmonics`) instead of tones, 29 of 300 randomized loops run
-    /// past 10 s, and three probes' expectations (slip, an extra mode, the shaft's zone
-    /// beside a pulsation) move to `base_terms`; on the randomized benchmark it lowers
-    /// the clean controls with a false claim from 58 % to 47 %
-    /// (`docs/closed-loop-bench*.md`).
-    pub complete_base: bool,
 }
 
 impl Default for LoopConfig {
@@ -74,7 +64,6 @@ impl Default for LoopConfig {
             seed: 0x7717,
             fault_threshold_db: 8.0,
             max_evaluations: 880,
-            complete_base: false,
         }
     }
 }
