@@ -591,7 +591,9 @@ impl TwinModel {
         if let Some((Effect::LoadZone { mod_hz }, p)) = self.effect_params(EffectKind::LoadZone) {
             let eps = p[0].value.exp();
             let w = 2.0 * std::f64::consts::PI * centre * mod_hz;
-            for (j, f) in force_r.iter_mut().enumerate() {
+            // Only the impacts are scaled (the force holds nothing else yet): the zone
+            // is evaluated where a pulse is, not at every half step.
+            for (j, f) in force_r.iter_mut().enumerate().filter(|(_, f)| **f != 0.0) {
                 let t = grid.t0 + j as f64 * grid.dt;
                 *f *= crate::effect::harris_zone(w * (t + 0.5 * drift * t * t), eps);
             }
@@ -608,7 +610,7 @@ impl TwinModel {
             if let (Effect::LoadZoneModulation { mod_hz }, Some(q)) = (e, p.first()) {
                 let depth = 1.0 / (1.0 + (-q.value).exp());
                 let w = 2.0 * std::f64::consts::PI * mod_hz;
-                for (j, f) in force_r.iter_mut().enumerate() {
+                for (j, f) in force_r.iter_mut().enumerate().filter(|(_, f)| **f != 0.0) {
                     let t = grid.t0 + j as f64 * grid.dt;
                     *f *= 1.0 - depth + depth * 0.5 * (1.0 + (w * t).cos());
                 }

@@ -2,13 +2,70 @@
 
 use super::context::{has, TraceContext};
 use crate::residual::{comb_contrast, envelope_line, Candidate, Check, Evidence};
-use crate::signature::block_within;
+use crate::signature::{block_within, MIN_BLOCK};
+use pumptwin_core::features::EnvelopeBand;
 use crate::twin::Effect;
 use crate::twin::EffectKind;
 
 /// Move of the defect rate between the record's halves (relative) above which the
 /// comb's loss is read as a drift rather than slip.
 const DRIFT_MIN_SHIFT: f32 = 0.0025;
+
+/// Blocks the record is cut into to see the defect rate's trend (at most; fewer on a
+/// short record, down to [`DRIFT_MIN_BLOCKS`]).
+const DRIFT_BLOCKS: usize = 8;
+/// Fewest blocks a trend is judged on (two degrees of freedom left by the line).
+const DRIFT_MIN_BLOCKS: usize = 4;
+
+/// Two-sided 1 % points of Student's t for 2..=6 degrees of freedom: a drift is
+/// claimed only where the rate's linear trend over the blocks stands this many
+/// standard errors from zero, so a steady speed whose slip scatters the rate from
+/// block to block makes a false drift claim on 1 % of records.
+const T_99: [f64; 5] = [9.925, 5.841, 4.604, 4.032, 3.707];
+
+/// The defect rate's linear trend over the record: the envelope line at `f` Hz read
+/// in up to [`DRIFT_BLOCKS`] consecutive blocks, a straight line fitted through the
+/// block rates against time. Returns the slope relative to `f` (per second) and its
+/// t statistic (slope over its standard error from the line's residuals) and the
+/// degrees of freedom behind it, or `None` where fewer than [`DRIFT_MIN_BLOCKS`]
+/// blocks show the line.
+fn rate_trend(
+    x: &[f32],
+    fs: f32,
+    band: EnvelopeBand,
+    f: f32,
+    n_max: usize,
+) -> Option<(f64, f64, usize)> {
+    let blocks = (x.len() / MIN_BLOCK).min(DRIFT_BLOCKS);
+    if blocks < DRIFT_MIN_BLOCKS {
+        return None;
+    }
+    let len = x.len() / blocks;
+    let n = block_within(n_max, len, 1).min(len);
+    let points: Vec<(f64, f64)> = (0..blocks)
+        .filter_map(|b| {
+            let seg = &x[b * len..(b + 1) * len];
+            let t = (b as f64 + 0.5) * len as f64 / f64::from(fs);
+            envelope_line(seg, fs, band, f, n).map(|r| (t, f64::from(r) / f64::from(f)))
+        })
+        .collect();
+    let k = points.len();
+    if k < DRIFT_MIN_BLOCKS {
+        return None;
+    }
+    let kf = k as f64;
+    let (mt, mr) = points
+        .iter()
+        .fold((0.0, 0.0), |(a, b), (t, r)| (a + t / kf, b + r / kf));
+    let stt: f64 = points.iter().map(|(t, _)| (t - mt).powi(2)).sum();
+    let slope = points.iter().map(|(t, r)| (t - mt) * (r - mr)).sum::<f64>() / stt;
+    let sse: f64 = points
+        .iter()
+        .map(|(t, r)| (r - mr - slope * (t - mt)).powi(2))
+        .sum();
+    let se = (sse / (kf - 2.0) / stt).sqrt();
+    Some((slope, slope / se.max(1e-12), k - 2))
+}
 
 /// Offer slip or a speed drift where the measured comb loses contrast at high
 /// orders against the model's. Slip is part of the base where the record shows it
@@ -67,10 +124,21 @@ pub(super) fn trace(ctx: &TraceContext<'_>, out: &mut Vec<Candidate>) {
                     );
                     let strength = 6.0 + (low - high).min(20.0);
                     let half_s = (half as f64 / f64::from(fs)).max(1e-3);
-                    let (effect, summary) = if shift.abs() > DRIFT_MIN_SHIFT {
+                    // A drift must move the rate steadily: its trend over the record's
+                    // blocks beyond what the rate's scatter from block to block allows.
+                    let trend = rate_trend(ctx.x, fs, band, h * fd, ctx.cfg.env_n);
+                    let steady = match trend {
+                        Some((_, t, dof)) => t.abs() < T_99[dof.clamp(2, 6) - 2],
+                        None => true,
+                    };
+                    if let Some((slope, t, _)) = trend {
+                        figures.insert("rate_trend_per_s".into(), serde_json::json!(slope));
+                        figures.insert("rate_trend_t".into(), serde_json::json!(t));
+                    }
+                    let (effect, summary) = if shift.abs() > DRIFT_MIN_SHIFT && !steady {
                         (
                             Effect::SpeedDrift { initial_per_s: f64::from(shift) / half_s, initial_rate_factor: mean_factor },
-                            format!("the defect comb loses {:.1} dB more contrast at high orders than the model, and the defect rate moves by {:+.2} % between the record's halves: the speed drifts", low - high, 100.0 * shift),
+                            format!("the defect comb loses {:.1} dB more contrast at high orders than the model, and the defect rate moves by {:+.2} % between the record's halves, a steady trend (t = {:.1} over the record's blocks, beyond the 1 % point of a steady speed's block-to-block scatter): the speed drifts", low - high, 100.0 * shift, trend.map_or(0.0, |t| t.1)),
                         )
                     } else if slipping || !washed {
                         return;
