@@ -1222,11 +1222,10 @@ const KNOWN_CWRU: &str = "
 ## Compared with what is known about these records
 
 - **Inner-race faults** (105, 169, 209): the literature (Smith & Randall 2015) reports
-  BPFI with sidebands at ±f_r from the load zone. The loop's verdict on each is in the
-  table: `load_zone_modulation` when the envelope residual showed k·BPFI ± m·f_r lines.
-  A second modulation is read where its sidebands stay after the first: on 105 at
-  2 f_r (the load zone is narrower than half a turn, so its shape carries the second
-  harmonic a single raised cosine lacks), on 169 at the elements' spin rate.
+  BPFI with sidebands at ±f_r from the load zone. The first fit's base carries it as
+  Harris's zone turning at f_r (`load_zone` among the base terms) where it lowers the
+  error, and the loop adds `load_zone_modulation` where k·BPFI ± m·f_r lines remain in
+  the envelope residual.
 - **Ball faults** (118, 185, 222): known to be weakly visible in the envelope; several
   are classed by Smith & Randall as not clearly diagnosable. Where the loop's fault
   hypothesis is not `ball`, that agrees with this known weakness rather than

@@ -65,7 +65,11 @@ pub(super) fn first_fit(s: &Setup<'_>) -> Result<FirstFit, LoopError> {
             best = Some(result);
         }
     }
-    let result = fit(&best.expect("two readings fitted").model, &s.target, &s.fit_cfg)?;
+    let result = fit(
+        &best.expect("two readings fitted").model,
+        &s.target,
+        &s.fit_cfg,
+    )?;
     evaluations += result.evaluations;
     let (result, base_terms, more) = complete_base(s, result, evaluations)?;
     Ok(FirstFit {

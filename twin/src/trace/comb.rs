@@ -3,9 +3,9 @@
 use super::context::{has, TraceContext};
 use crate::residual::{comb_contrast, envelope_line, Candidate, Check, Evidence};
 use crate::signature::{block_within, MIN_BLOCK};
-use pumptwin_core::features::EnvelopeBand;
 use crate::twin::Effect;
 use crate::twin::EffectKind;
+use pumptwin_core::features::EnvelopeBand;
 
 /// Move of the defect rate between the record's halves (relative) above which the
 /// comb's loss is read as a drift rather than slip.
