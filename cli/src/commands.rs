@@ -935,9 +935,9 @@ pub fn loop_rate(fs: f32) -> f32 {
 }
 
 /// The closed loop on one channel of a loaded record (`input` names it in messages):
-/// `channel` (default DE, else the first), samples times `unit_scale` (g per unit),
-/// Returns the report, its spectra and the
-/// channel's name: what `pumptwin twin loop` writes, for a library caller too.
+/// `channel` (default DE, else the first), samples times `unit_scale` (g per unit).
+/// Returns the report, its spectra and the channel's name: what `pumptwin twin loop`
+/// writes, for a library caller too.
 pub fn twin_loop(
     loaded: &LoadedRecord,
     input: &str,

@@ -1,10 +1,9 @@
 //! The loop's first fit: the fault hypothesis from the envelope spectrum, the base
 //! model's start (the structure's mode at one of the PSD's peaks, the sensor's reading
 //! of it, the impacts scaled to the record's RMS), the defect rate read off the
-//! spectral comb, then eq. 10; then
-//! the base completed with what every bearing signal has (issue 32, Randall & Antoni
-//! 2011 §2) where the record shows it: the structure's further modes at the PSD's
-//! other peaks, the load zone of a rotating race or a rolling element (Harris's, with
+//! spectral comb, then eq. 10; then the base completed with what every bearing signal
+//! has (issue 32, Randall & Antoni 2011 §2) where the record shows it: the structure's
+//! further modes where the model falls short of the measured PSD, the load zone of a rotating race or a rolling element (Harris's, with
 //! its harmonics), the rolling elements' slip jitter and the spread of their impacts'
 //! strengths. These are the base's terms (`base_terms` in the report, their values in
 //! `params_initial`), not effects: an effect is what a particular machine adds.
@@ -13,9 +12,10 @@
 //! the development seed; `docs/closed-loop-bench.md`): with the sensor's two readings
 //! and the completed base the first fit's PSD error on clean controls fell from 9.40×
 //! the record's half-to-half scatter (one mode read on its mass line, nothing
-//! completed) to 3.36× (median), and the controls with a false claim from 58 % to
-//! 43 %. The completion once cost a probe (vane tones on CWRU 234 read as a force):
-//! with the housing's reading it no longer does.
+//! completed) to 2.83× (median), and the controls with a false claim from 58 % to
+//! 35 % (held-out `--seed 2`: 9.48× → 3.28×, 68 % → 32 %). The completion once cost a
+//! probe (vane tones on CWRU 234 read as a force): with the housing's reading it no
+//! longer does.
 
 use super::setup::Setup;
 use super::types::LoopError;
@@ -201,8 +201,9 @@ fn base_fit_config(s: &Setup<'_>) -> FitConfig {
     }
 }
 
-/// `model` with `terms` added and fitted within `budget` evaluations; with `two_starts` also from half its
-/// background force and the impacts 40 % stronger, the better kept — a base fitted
+/// `model` with `terms` added and fitted within `budget` evaluations; with `two_starts`
+/// also from half its background force and the impacts 40 % stronger, the better kept
+/// — a base fitted
 /// without a load zone has put the modulation's power into the background, and
 /// Levenberg–Marquardt does not always take it back from there (an inner race
 /// modulated 80 %: PSD 5.7 dB from the first start, 0.8 dB from the second). The rate
@@ -266,13 +267,10 @@ fn shortfall_peaks(target: &Target, sig: &Signature) -> Vec<(f64, f32)> {
     let cfg = &target.cfg;
     let model = to_db(&sig.psd, &target.meas.psd);
     let n = model.len().min(target.psd_db.len());
-    let smooth = |v: &[f32], k: usize| {
-        let a = k.saturating_sub(3);
-        let b = (k + 3).min(n - 1);
-        v[a..=b].iter().sum::<f32>() / (b - a + 1) as f32
-    };
-    let excess: Vec<f32> = (0..n)
-        .map(|k| smooth(&target.psd_db, k) - smooth(&model, k))
+    let excess: Vec<f32> = smooth3(&target.psd_db[..n])
+        .iter()
+        .zip(smooth3(&model[..n]))
+        .map(|(m, s)| m - s)
         .collect();
     let (lo, hi) = mode_search_bins(target);
     let hi = hi.min(n.saturating_sub(2));
@@ -303,6 +301,17 @@ fn shortfall_peaks(target: &Target, sig: &Signature) -> Vec<(f64, f32)> {
 /// the shaft's and the defect's lines more often than modes.
 const MODE_SEARCH_LO_HZ: f32 = 500.0;
 
+/// `v` averaged over ±3 bins (fewer at its ends).
+fn smooth3(v: &[f32]) -> Vec<f32> {
+    (0..v.len())
+        .map(|k| {
+            let a = k.saturating_sub(3);
+            let b = (k + 3).min(v.len() - 1);
+            v[a..=b].iter().sum::<f32>() / (b - a + 1) as f32
+        })
+        .collect()
+}
+
 /// The PSD bins a structure's mode is looked for in: from [`MODE_SEARCH_LO_HZ`] to two
 /// bins below the compared band's top.
 fn mode_search_bins(target: &Target) -> (usize, usize) {
@@ -311,20 +320,13 @@ fn mode_search_bins(target: &Target) -> (usize, usize) {
     (lo, *cfg.psd_bins().end() - 2)
 }
 
-/// The measured PSD's local maxima above [`MODE_SEARCH_LO_HZ`] (smoothed over ±3 bins), and the
-/// searched band's top where the PSD still rises into it, strongest first, at most
-/// four, Hz.
+/// Where the base's mode starts: the measured PSD's local maxima above
+/// [`MODE_SEARCH_LO_HZ`] (smoothed over ±3 bins) and the searched band's top where the
+/// PSD still rises into it, strongest first, at most four, Hz.
 fn psd_peaks(target: &Target) -> Vec<f64> {
     let cfg = &target.cfg;
-    let db = &target.psd_db;
     let (lo, hi) = mode_search_bins(target);
-    let smooth: Vec<f32> = (0..db.len())
-        .map(|k| {
-            let a = k.saturating_sub(3);
-            let b = (k + 3).min(db.len() - 1);
-            db[a..=b].iter().sum::<f32>() / (b - a + 1) as f32
-        })
-        .collect();
+    let smooth = smooth3(&target.psd_db);
     let mut peaks: Vec<usize> = (lo.max(1)..hi)
         .filter(|&k| smooth[k] > smooth[k - 1] && smooth[k] >= smooth[k + 1])
         .collect();
