@@ -108,6 +108,9 @@ def main():
     print(f"typed_logistic ({a:.3f}, {b:.3f}) from {len(typed)} claims")
     share = {t: called_normal[t] / n[t] for t in n}
     p = share.get("normal", 0.0) / max(sum(share.values()), 1e-9)
+    # Where no faulty window was called normal, p is 1 and its logit infinite: cap it
+    # at half a wrong call among the windows called normal.
+    p = min(p, 1 - 0.5 / max(sum(called_normal.values()), 1))
     normal_b = math.log(p / (1 - p))
     print(f"P(normal | called normal), types weighted equally: {p:.3f} "
           f"(normal_logistic (0, {normal_b:.2f})); shares called normal {share}")

@@ -780,6 +780,12 @@ pub struct TwinBenchArgs {
     /// runs it, to look at one case's plots.
     #[arg(long, value_name = "ID")]
     pub write_case: Option<usize>,
+    /// Add the effects to the measured records under this directory (cwru/, mfpt/,
+    /// hit_sm/, each with its MANIFEST.tsv) instead of synthesizing the bases:
+    /// `--cases` injected cases, a control on each record long enough for one
+    /// (`pumptwin_twin::bench::measured`).
+    #[arg(long, value_name = "DIR", conflicts_with = "write_case")]
+    pub measured: Option<PathBuf>,
 }
 
 /// `pumptwin twin loop`.
@@ -862,6 +868,9 @@ fn run_twin_bench(args: &TwinBenchArgs) -> Result<()> {
     let threads = args.threads.unwrap_or_else(|| {
         std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
     });
+    if let Some(data) = &args.measured {
+        return run_measured_bench(args, data, threads);
+    }
     let t0 = std::time::Instant::now();
     let cfg = pumptwin_twin::closed_loop::LoopConfig::default();
     let outcomes = run(args.cases, args.seed, threads, &cfg, &|done| {
@@ -889,6 +898,85 @@ fn run_twin_bench(args: &TwinBenchArgs) -> Result<()> {
         t0.elapsed().as_secs_f64(),
         args.cases
     ));
+    std::fs::write(args.out.join("report.md"), &md)?;
+    if let Some(doc) = &args.doc {
+        std::fs::write(doc, &md).with_context(|| format!("write {}", doc.display()))?;
+    }
+    outln!("{md}");
+    Ok(())
+}
+
+/// `pumptwin twin bench --measured DIR`.
+fn run_measured_bench(args: &TwinBenchArgs, data: &std::path::Path, threads: usize) -> Result<()> {
+    use pumptwin_core::diagnosis::FaultType;
+    use pumptwin_twin::bench::draw::Defect;
+    use pumptwin_twin::bench::measured::{markdown, run_measured, MeasuredBase};
+    use std::io::Write;
+    let t0 = std::time::Instant::now();
+    let bases: Vec<MeasuredBase> = crate::generalization::load_cases(data)?
+        .into_iter()
+        .filter_map(|c| {
+            let ch = c.rec.channel("DE").or(c.rec.channels.first())?;
+            let defect = match c.truth {
+                FaultType::InnerRace => Some(Defect::InnerRace),
+                FaultType::OuterRace => Some(Defect::OuterRace),
+                FaultType::Ball => Some(Defect::Ball),
+                _ => None,
+            };
+            Some(MeasuredBase {
+                rig: c.protocol_rig().to_string(),
+                record: c.record,
+                fs_hz: c.rec.fs_hz,
+                rpm: c.rpm,
+                bearing: c.bearing,
+                defect,
+                samples: ch.samples.clone(),
+            })
+        })
+        .collect();
+    ensure!(
+        !bases.is_empty(),
+        "no measured record under {}",
+        data.display()
+    );
+    let cfg = pumptwin_twin::closed_loop::LoopConfig::default();
+    eprintln!(
+        "{} measured records loaded in {:.1} s",
+        bases.len(),
+        t0.elapsed().as_secs_f64()
+    );
+    let run = run_measured(
+        &bases,
+        args.cases,
+        args.seed,
+        threads,
+        &cfg,
+        &|done, total| {
+            eprint!("\r{done}/{total} loops");
+        },
+    );
+    eprintln!();
+    std::fs::create_dir_all(&args.out).with_context(|| format!("create {}", args.out.display()))?;
+    let path = args.out.join("cases.jsonl");
+    let mut f = std::io::BufWriter::new(
+        std::fs::File::create(&path).with_context(|| format!("create {}", path.display()))?,
+    );
+    for b in &run.before {
+        serde_json::to_writer(&mut f, b)?;
+        writeln!(f)?;
+    }
+    for o in &run.outcomes {
+        serde_json::to_writer(&mut f, o)?;
+        writeln!(f)?;
+    }
+    f.flush()?;
+    let command = format!(
+        "pumptwin twin bench --measured {} --cases {} --seed {}",
+        data.display(),
+        args.cases,
+        args.seed
+    );
+    let md = markdown(&run, &command, t0.elapsed().as_secs_f64(), threads);
     std::fs::write(args.out.join("report.md"), &md)?;
     if let Some(doc) = &args.doc {
         std::fs::write(doc, &md).with_context(|| format!("write {}", doc.display()))?;

@@ -81,20 +81,35 @@ pub struct GeneralizationArgs {
 
 /// One record of a protocol, at the model rate.
 #[derive(Clone)]
-struct Case {
-    protocol: &'static str,
-    record: String,
-    truth: FaultType,
+pub(crate) struct Case {
+    pub(crate) protocol: &'static str,
+    pub(crate) record: String,
+    pub(crate) truth: FaultType,
     /// True defect size and its unit, where the data set states one.
     size: Option<(f32, &'static str)>,
     /// Records of one rig, fault type and operating condition: severity is ranked
     /// against size inside a group.
     group: String,
-    rec: Recording,
+    pub(crate) rec: Recording,
     /// The record at its own rate (HIT-SM only: the native-rate width experiment).
     native: Option<Recording>,
-    rpm: f32,
+    pub(crate) rpm: f32,
     orders: DefectOrders,
+    /// The bearing's geometry.
+    pub(crate) bearing: BearingGeometry,
+}
+
+impl Case {
+    /// The rig a measured record comes from: `cwru`, `mfpt`, `hit_sm` (`sim` for a
+    /// simulated one).
+    pub(crate) fn protocol_rig(&self) -> &'static str {
+        match self.protocol {
+            "cross-rig-mfpt" => "mfpt",
+            "cross-rig-hit" => "hit_sm",
+            "sim-dev" | "sim-only" => "sim",
+            _ => "cwru",
+        }
+    }
 }
 
 /// Per window of a case: the physics, the envelope rule, the networks (`None` where
@@ -227,6 +242,7 @@ fn sim_cases(n: u64, seed: u64) -> Result<Vec<Case>> {
                 native: None,
                 rpm: spec.rpm,
                 orders: spec.bearing.orders(),
+                bearing: spec.bearing,
             })
         })
         .collect()
@@ -237,7 +253,7 @@ fn preprocess_to_model_rate(raw: &Recording) -> Result<Recording> {
 }
 
 /// Every record of the protocols (a data set that is absent is skipped with a notice).
-fn load_cases(data: &Path) -> Result<Vec<Case>> {
+pub(crate) fn load_cases(data: &Path) -> Result<Vec<Case>> {
     let mut cases = Vec::new();
     let cwru = data.join("cwru");
     if cwru.join("MANIFEST.tsv").exists() {
@@ -265,6 +281,7 @@ fn load_cases(data: &Path) -> Result<Vec<Case>> {
                 native: None,
                 rpm,
                 orders: BearingGeometry::CWRU_6205_DE.orders(),
+                bearing: BearingGeometry::CWRU_6205_DE,
             });
         }
     } else {
@@ -309,6 +326,7 @@ fn load_cases(data: &Path) -> Result<Vec<Case>> {
                 native: (dir == "hit_sm").then(|| raw.clone()),
                 rpm: e.rpm,
                 orders: bearing.orders(),
+                bearing,
             });
         }
     }

@@ -366,6 +366,78 @@ pub fn draw_case(id: usize, seed: u64, seconds: f64) -> Case {
     }
 }
 
+/// The kinds that can be added to a measured record: what reaches the sensor beside
+/// the bearing's own signal (mains, tones, bursts), what the acquisition does
+/// (clipping, dropouts), and a second defect's impacts synthesized alone. Not the
+/// kinds that act on the record's own impacts or structure (a modulation of them, an
+/// extra mode they drive, a speed drift, a stiffening): a measured record's impacts
+/// cannot be taken apart to change them.
+const MEASURED_KINDS: [Kind; 7] = [
+    Kind::Mains,
+    Kind::ShaftTones,
+    Kind::MeshTones,
+    Kind::Compound,
+    Kind::Bursts,
+    Kind::Clipping,
+    Kind::Dropouts,
+];
+
+/// Draw case `id` on a measured record described by `base` (its rate, speed,
+/// geometry and defect; `background_g` its RMS, the injections' reference): one
+/// effect on two cases in three, two on the rest, of [`MEASURED_KINDS`]. A compound
+/// fault's second train rings one mode drawn here (put in `base.modes`: the record's
+/// own structure is not known). Mains keep their drawn frequency: the record's speed
+/// is its own, so `near_shaft_order` is true only where it happens to be.
+pub fn draw_measured_case(id: usize, seed: u64, mut base: Base, seconds: f64) -> Case {
+    let case_seed = seed.wrapping_mul(0xD1B5_4A32_D192_ED03) ^ (id as u64).wrapping_add(1);
+    let mut rng = Xoshiro128pp::seed_from_u64(case_seed);
+    let mut d = Draw(&mut rng);
+    let n_effects = if d.u() < 2.0 / 3.0 { 1 } else { 2 };
+    let mut kinds: Vec<Kind> = Vec::new();
+    while kinds.len() < n_effects {
+        let k = MEASURED_KINDS[d.pick(MEASURED_KINDS.len())];
+        if kinds.contains(&k) || (k.needs_defect() && base.defect.is_none()) {
+            continue;
+        }
+        kinds.push(k);
+    }
+    if kinds.contains(&Kind::Compound) {
+        base.modes = vec![Mode {
+            f_hz: d.lin(1_500.0, 0.38 * base.fs_hz),
+            zeta: d.lin(0.02, 0.08),
+            gain: 1.0,
+        }];
+    }
+    let injected = kinds
+        .iter()
+        .map(|k| {
+            let u = d.u();
+            let mut scratch = base.clone();
+            let mut injection = draw_injection(*k, u, &mut scratch, seconds, &mut d);
+            if let Injection::Mains {
+                f0_hz,
+                lines,
+                near_shaft_order,
+            } = &mut injection
+            {
+                let shaft = base.rpm / 60.0;
+                *near_shaft_order = lines.iter().any(|(h, _)| {
+                    let f = *f0_hz * f64::from(*h);
+                    let k = (f / shaft).round().max(1.0);
+                    (f / (k * shaft) - 1.0).abs() <= 0.002
+                });
+            }
+            Drawn { injection, u }
+        })
+        .collect();
+    Case {
+        id,
+        seed: case_seed,
+        base,
+        injected,
+    }
+}
+
 fn draw_base(d: &mut Draw<'_>) -> Base {
     const RATES: [f64; 3] = [10_240.0, 12_000.0, 12_800.0];
     let fs_hz = RATES[d.pick(3)];

@@ -6,6 +6,7 @@
 //! |---|---|
 //! | [`draw`] | one case: a base with its conditions drawn, 0–2 effects of random strength |
 //! | [`synth`] | its record, from the literature's bearing signal (nothing shared with the twin) |
+//! | [`measured`] | the same effects added to measured records, and their controls |
 //! | [`score`] | the loop's claims against the injections, and the tables |
 //!
 //! The generator is written from the literature (Randall & Antoni 2011), not from the
@@ -16,6 +17,7 @@
 //! those an effect is caught claiming falsely.
 
 pub mod draw;
+pub mod measured;
 pub mod score;
 pub mod synth;
 
@@ -43,7 +45,7 @@ pub fn run_case(case: Case, cfg: &LoopConfig) -> Outcome {
     match result {
         Ok(Ok((mut report, _))) => {
             note_clipping(&mut report, &x);
-            score::score(case, &report)
+            score::score(case, &report, &[])
         }
         Ok(Err(e)) => score::failed(case, e.to_string()),
         Err(p) => {

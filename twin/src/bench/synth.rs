@@ -67,6 +67,49 @@ pub fn synthesize(case: &Case, seconds: f64) -> Vec<f32> {
     x.into_iter().map(|v| v as f32).collect()
 }
 
+/// A measured record `x` (at `case.base.fs_hz`, the speed `case.base.rpm`) with the
+/// case's injections added as [`synthesize`] adds them to a synthesized one: the
+/// sensor-side ones at levels relative to the record's RMS (`base.background_g`), a
+/// compound fault's second train synthesized alone (the base's slip, spread and load
+/// zone, through the mode drawn for it) at `rel` times the record's RMS, then the
+/// acquisition's clipping and dropouts. The record's own signal is untouched.
+pub fn inject_measured(case: &Case, x: &[f32]) -> Vec<f32> {
+    let b = &case.base;
+    let fs_sim = b.fs_hz * OVERSAMPLE as f64;
+    let n = x.len() * OVERSAMPLE;
+    let mut rng = Xoshiro128pp::seed_from_u64(case.seed ^ 0x5EED);
+    let turns = shaft_turns(b, case, n, fs_sim);
+    let mut out: Vec<f64> = x.iter().map(|&v| f64::from(v)).collect();
+    let base_rms = rms(&out);
+    let mut sensor = vec![0.0f64; n];
+    for d in &case.injected {
+        add_sensor_side(
+            &d.injection,
+            &turns,
+            fs_sim,
+            base_rms,
+            &mut sensor,
+            &mut rng,
+        );
+        if let Injection::Compound { defect, rel, .. } = d.injection {
+            let mut f = vec![0.0f64; n];
+            impact_train(b, defect, 1.0, &turns, fs_sim, None, &mut rng, &mut f);
+            let y = structure(b, case, &f, fs_sim, None);
+            let gain = rel * base_rms / rms(&decimate(&y, fs_sim)).max(1e-30);
+            for (s, v) in sensor.iter_mut().zip(y) {
+                *s += gain * v;
+            }
+        }
+    }
+    for (o, s) in out.iter_mut().zip(decimate(&sensor, fs_sim)) {
+        *o += s;
+    }
+    for d in &case.injected {
+        acquisition(&d.injection, &mut out);
+    }
+    out.into_iter().map(|v| v as f32).collect()
+}
+
 /// Shaft angle in turns at every simulation sample, with a linear speed drift if one
 /// is injected (the mean speed stays the nominal one).
 fn shaft_turns(b: &Base, case: &Case, n: usize, fs_sim: f64) -> Vec<f64> {
@@ -399,7 +442,7 @@ fn rms(x: &[f64]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bench::draw::{draw_case, Drawn};
+    use crate::bench::draw::{draw_case, Drawn, Mode};
 
     fn spectrum_peak_near(x: &[f32], fs: f64, f: f64) -> f64 {
         // One DFT bin at f against the mean power of bins 5–50 Hz away.
@@ -501,6 +544,92 @@ mod tests {
         let at_rail = x.iter().filter(|v| v.abs() == peak).count();
         assert!(at_rail > 20, "{at_rail} samples at the rail");
         assert!(x[1000..1200].iter().all(|v| *v == x[1000]));
+    }
+
+    /// On a measured record the injections are added and the record is otherwise
+    /// untouched: nothing injected gives it back sample for sample; mains appear at
+    /// their fundamental; a compound fault's second train comes at its own rate (its
+    /// squared envelope's line) with the RMS `rel` times the record's.
+    #[test]
+    fn injections_add_to_a_measured_record_and_leave_it_otherwise() {
+        use crate::bench::draw::draw_measured_case;
+        let fs = 12_000.0;
+        let mut rng = Xoshiro128pp::seed_from_u64(5);
+        let x: Vec<f32> = (0..24_000).map(|_| 0.1 * rng.normal() as f32).collect();
+        let mut c = draw_measured_case(0, 1, control(None).base, 2.0);
+        c.base.fs_hz = fs;
+        c.base.rpm = 1800.0;
+        c.base.background_g = 0.1;
+        c.injected.clear();
+        assert_eq!(inject_measured(&c, &x), x);
+        c.injected = vec![Drawn {
+            injection: Injection::Mains {
+                f0_hz: 60.0,
+                lines: vec![(1, 0.02)],
+                near_shaft_order: false,
+            },
+            u: 0.5,
+        }];
+        let y = inject_measured(&c, &x);
+        assert!(spectrum_peak_near(&y, fs, 60.0) > 20.0);
+        c.base.defect = Some(Defect::InnerRace);
+        c.base.modes = vec![Mode {
+            f_hz: 3_000.0,
+            zeta: 0.04,
+            gain: 1.0,
+        }];
+        let rate = 1800.0 / 60.0 * f64::from(c.base.bearing.orders().bpfo) * 0.99;
+        c.injected = vec![Drawn {
+            injection: Injection::Compound {
+                defect: Defect::OuterRace,
+                rel: 0.5,
+                rate_hz: rate,
+            },
+            u: 0.5,
+        }];
+        let y = inject_measured(&c, &x);
+        let added: Vec<f64> = y.iter().zip(&x).map(|(a, b)| f64::from(a - b)).collect();
+        let r = rms(&added) / 0.1;
+        assert!(
+            (r - 0.5).abs() < 0.05,
+            "second train's RMS {r} of the record's"
+        );
+        let env: Vec<f32> = added.iter().map(|v| (v * v) as f32).collect();
+        let db = spectrum_peak_near(&env, fs, rate);
+        assert!(db > 10.0, "second train's line {db} dB");
+    }
+
+    /// A measured case draws only what can be added to a measured record, one or two
+    /// of them, a compound fault only on a record with a defect, and keeps the
+    /// record's speed.
+    #[test]
+    fn measured_cases_draw_what_a_measured_record_can_take() {
+        use crate::bench::draw::draw_measured_case;
+        let mut healthy = control(None).base;
+        healthy.rpm = 1797.0;
+        let mut faulty = healthy.clone();
+        faulty.defect = Some(Defect::Ball);
+        let mut compound = 0;
+        for id in 0..200 {
+            for base in [&healthy, &faulty] {
+                let c = draw_measured_case(id, 3, base.clone(), 6.0);
+                assert!((1..=2).contains(&c.injected.len()));
+                assert_eq!(c.base.rpm, 1797.0);
+                for d in &c.injected {
+                    let name = d.injection.name();
+                    assert!(
+                        !["modulation", "extra_mode", "speed_drift", "duffing"].contains(&name),
+                        "{name}"
+                    );
+                    if name == "compound" {
+                        assert!(base.defect.is_some());
+                        assert_eq!(c.base.modes.len(), 1);
+                        compound += 1;
+                    }
+                }
+            }
+        }
+        assert!(compound > 20, "{compound} compound faults drawn");
     }
 
     /// The same case gives the same record; another seed another one.

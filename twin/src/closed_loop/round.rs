@@ -137,6 +137,7 @@ pub(super) fn round(
         current: &st.current,
         y_sim: &y_sim,
         sim_sig: &sim_sig,
+        current_halves: s.half_costs(&st.current.model)?,
     };
     let kept = trial.try_candidates(&candidates, &mut st.trials);
     let next = conclude(s, st, kept, &candidates, unexplained_misfit);

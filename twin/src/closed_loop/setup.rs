@@ -5,8 +5,8 @@
 use super::record::{ac_couple, held_runs, psd_low_edge, MAX_RMS_G};
 use super::types::{LoopConfig, LoopError, LoopInput};
 use crate::fit::{FitConfig, Target};
-use crate::signature::{Signature, SignatureConfig, SignatureError};
-use crate::twin::{OperatingPoint, TwinModel};
+use crate::signature::{residual_vector, Signature, SignatureConfig, SignatureError};
+use crate::twin::{EffectKind, OperatingPoint, TwinModel};
 
 /// Relative gain that keeps the first fit iterating: its Θ are the trainer's F_map
 /// targets (`crate::physics::fit_theta`), fitted to convergence.
@@ -37,6 +37,10 @@ pub(super) struct Setup<'a> {
     pub(super) n_res: usize,
     /// The record's duration, s.
     pub(super) span_s: f64,
+    /// The measurement's two halves as the fit compares them (`None` when a half
+    /// holds fewer than two PSD blocks): an effect must lower the error in each
+    /// ([`Setup::half_costs`]).
+    pub(super) halves: Option<[Target; 2]>,
 }
 
 impl<'a> Setup<'a> {
@@ -88,6 +92,18 @@ impl<'a> Setup<'a> {
         };
         let n_res = span(cfg.residual_seconds);
         let span_s = x.len() as f64 / f64::from(input.fs_hz);
+        let h = x.len() / 2;
+        let halves = if h >= 2 * sig_fit.psd_n {
+            match (
+                Target::of(&x[..h], sig_fit),
+                Target::of(&x[h..2 * h], sig_fit),
+            ) {
+                (Ok(a), Ok(b)) => Some([a, b]),
+                _ => None,
+            }
+        } else {
+            None
+        };
         Ok(Self {
             cfg,
             x,
@@ -100,7 +116,46 @@ impl<'a> Setup<'a> {
             fit_cfg,
             n_res,
             span_s,
+            halves,
         })
+    }
+
+    /// The cost of model `m` against each half of the measurement (the fit's cost,
+    /// [`crate::fit::evaluate`], with a half as the target); `None` without halves.
+    /// A model that drifts in speed is simulated over the whole record and compared
+    /// half with half; any other is the same in every stretch, so one fit span of it
+    /// is compared with both.
+    pub(super) fn half_costs(&self, m: &TwinModel) -> Result<Option<[f32; 2]>, LoopError> {
+        let Some(halves) = &self.halves else {
+            return Ok(None);
+        };
+        let drifts = m
+            .effects
+            .iter()
+            .any(|(e, _)| e.kind() == EffectKind::SpeedDrift);
+        let h = self.x.len() / 2;
+        let n = if drifts { 2 * h } else { self.fit_cfg.n_sim };
+        let y = m
+            .render(n, self.fit_cfg.seed)
+            .map_err(|e| LoopError::Fit(e.into()))?;
+        let sig =
+            |part: &[f32]| Signature::of(part, &self.sig_fit).map_err(|e| LoopError::Fit(e.into()));
+        let sigs = if drifts {
+            [sig(&y[..h])?, sig(&y[h..2 * h])?]
+        } else {
+            let s = sig(&y)?;
+            [s.clone(), s]
+        };
+        let cost = |s: &Signature, t: &Target| -> f32 {
+            residual_vector(s, &t.psd_db, &t.env_db, &t.meas, &t.cfg)
+                .iter()
+                .map(|v| v * v)
+                .sum()
+        };
+        Ok(Some([
+            cost(&sigs[0], &halves[0]),
+            cost(&sigs[1], &halves[1]),
+        ]))
     }
 
     /// The model `m` simulated over the residual's span, and its signature.

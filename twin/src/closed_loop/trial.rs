@@ -1,8 +1,8 @@
 //! One candidate effect tried: the model with the effect added, refitted from two
 //! starts (the effect at its typical strength with the measurement noise lifted, and
 //! the effect at a twentieth of it with the model as it was), and judged: does it
-//! explain its own evidence, lower the error, and keep the shown errors from rising on
-//! balance. Rival readings of the same lines are tried too, the clearly better kept.
+//! explain its own evidence, lower the error — in the whole record and in each of its
+//! halves — and keep the shown errors from rising on balance. Rival readings of the same lines are tried too, the clearly better kept.
 
 use super::setup::Setup;
 use super::types::{LoopError, RejectedCandidate};
@@ -186,6 +186,8 @@ pub(super) struct Verdict {
     pub(super) shown_ok: bool,
     /// A reading the fit itself undoes: bursts fitted at a rate where they overlap.
     pub(super) undone: Option<String>,
+    /// The cost falls in each half of the record too.
+    pub(super) replicated: bool,
 }
 
 /// One candidate's refit and verdict (or why neither start could be fitted).
@@ -212,6 +214,8 @@ pub(super) struct Trial<'a> {
     pub(super) current: &'a FitResult,
     pub(super) y_sim: &'a [f32],
     pub(super) sim_sig: &'a Signature,
+    /// The current model's cost against each half of the record.
+    pub(super) current_halves: Option<[f32; 2]>,
 }
 
 impl Trial<'_> {
@@ -443,12 +447,38 @@ impl Trial<'_> {
         let undone = trial.model.burst_overlap().filter(|&m| m > MAX_BURST_OVERLAP).map(|m| {
             format!("the bursts were fitted at a rate where each rings into the next (rate x decay time {m:.2} > {MAX_BURST_OVERLAP}): band noise, not bursts")
         });
+        // The gain must be the record's, not one stretch's: in each half of the
+        // record the effect lowers the cost by at least half of what the whole
+        // requires of it (the halves' costs count the same bins as the whole's,
+        // each over a noisier estimate; a gain carried by one half alone is
+        // noise the fit found a use for, or a passing event).
+        let required = if local_ok {
+            min_gain
+        } else {
+            self.s.cfg.min_relative_gain
+        };
+        let replicated = if shown_ok && (local_ok || global_ok) && undone.is_none() {
+            self.in_both_halves(trial, 0.5 * required * current.cost)?
+        } else {
+            true
+        };
         Ok(Verdict {
-            passes: shown_ok && (local_ok || global_ok) && undone.is_none(),
+            passes: shown_ok && (local_ok || global_ok) && undone.is_none() && replicated,
             undone,
             explained,
             shown_ok,
+            replicated,
         })
+    }
+
+    /// Whether `trial` lowers the cost against each half of the record by `need`
+    /// (true where the record has no halves to compare).
+    fn in_both_halves(&self, trial: &FitResult, need: f32) -> Result<bool, LoopError> {
+        let (Some(before), Some(after)) = (self.current_halves, self.s.half_costs(&trial.model)?)
+        else {
+            return Ok(true);
+        };
+        Ok(before.iter().zip(&after).all(|(b, a)| b - a >= need))
     }
 
     /// A rejected candidate, as reported.
@@ -527,7 +557,9 @@ impl Trial<'_> {
                 return Some(self.best_of_rivals(cand, trial, &candidates[i + 1..], trials));
             }
             let (b, a) = (&self.current.figures, &trial.figures);
-            let reason = if verdict.shown_ok {
+            let reason = if !verdict.replicated {
+                "the error falls in one half of the record only".to_string()
+            } else if verdict.shown_ok {
                 format!(
                     "the error falls too little (its own evidence {}explained)",
                     if verdict.explained { "" } else { "not " }
