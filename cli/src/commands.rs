@@ -777,14 +777,15 @@ pub struct TwinBenchArgs {
     #[arg(long)]
     pub doc: Option<PathBuf>,
     /// Write only this case's record (DIR/case-ID.csv) and the `twin loop` command that
-    /// runs it, to look at one case's plots.
+    /// runs it, to look at one case's plots (with `--measured`: the case of that id in
+    /// its `cases.jsonl`, a run of `--cases` cases).
     #[arg(long, value_name = "ID")]
     pub write_case: Option<usize>,
     /// Add the effects to the measured records under this directory (cwru/, mfpt/,
     /// hit_sm/, each with its MANIFEST.tsv) instead of synthesizing the bases:
     /// `--cases` injected cases, a control on each record long enough for one
     /// (`pumptwin_twin::bench::measured`).
-    #[arg(long, value_name = "DIR", conflicts_with = "write_case")]
+    #[arg(long, value_name = "DIR")]
     pub measured: Option<PathBuf>,
 }
 
@@ -862,7 +863,7 @@ fn run_twin_bench(args: &TwinBenchArgs) -> Result<()> {
     use pumptwin_twin::bench::{run, score};
     use std::io::Write;
     ensure!(args.cases > 0, "--cases 0: nothing to run");
-    if let Some(id) = args.write_case {
+    if let (Some(id), None) = (args.write_case, &args.measured) {
         return write_bench_case(args, id);
     }
     let threads = args.threads.unwrap_or_else(|| {
@@ -906,13 +907,13 @@ fn run_twin_bench(args: &TwinBenchArgs) -> Result<()> {
     Ok(())
 }
 
-/// `pumptwin twin bench --measured DIR`.
-fn run_measured_bench(args: &TwinBenchArgs, data: &std::path::Path, threads: usize) -> Result<()> {
+/// The measured records under `data` as the measured bench's bases.
+fn measured_bases(
+    data: &std::path::Path,
+) -> Result<Vec<pumptwin_twin::bench::measured::MeasuredBase>> {
     use pumptwin_core::diagnosis::FaultType;
     use pumptwin_twin::bench::draw::Defect;
-    use pumptwin_twin::bench::measured::{markdown, run_measured, MeasuredBase};
-    use std::io::Write;
-    let t0 = std::time::Instant::now();
+    use pumptwin_twin::bench::measured::MeasuredBase;
     let bases: Vec<MeasuredBase> = crate::generalization::load_cases(data)?
         .into_iter()
         .filter_map(|c| {
@@ -939,7 +940,19 @@ fn run_measured_bench(args: &TwinBenchArgs, data: &std::path::Path, threads: usi
         "no measured record under {}",
         data.display()
     );
+    Ok(bases)
+}
+
+/// `pumptwin twin bench --measured DIR`.
+fn run_measured_bench(args: &TwinBenchArgs, data: &std::path::Path, threads: usize) -> Result<()> {
+    use pumptwin_twin::bench::measured::{markdown, run_measured};
+    use std::io::Write;
+    let t0 = std::time::Instant::now();
+    let bases = measured_bases(data)?;
     let cfg = pumptwin_twin::closed_loop::LoopConfig::default();
+    if let Some(id) = args.write_case {
+        return write_measured_case(args, &bases, id, &cfg);
+    }
     eprintln!(
         "{} measured records loaded in {:.1} s",
         bases.len(),
@@ -985,6 +998,30 @@ fn run_measured_bench(args: &TwinBenchArgs, data: &std::path::Path, threads: usi
     Ok(())
 }
 
+/// `--measured DIR --write-case ID`: the case's signal as a CSV and its `twin loop`
+/// command.
+fn write_measured_case(
+    args: &TwinBenchArgs,
+    bases: &[pumptwin_twin::bench::measured::MeasuredBase],
+    id: usize,
+    cfg: &pumptwin_twin::closed_loop::LoopConfig,
+) -> Result<()> {
+    let (i, case, signal) =
+        pumptwin_twin::bench::measured::measured_case(bases, id, args.cases, args.seed, cfg)
+            .with_context(|| format!("no case {id} in a run of {} cases", args.cases))?;
+    let b = &bases[i];
+    let rec = Recording {
+        name: format!("measured bench case {id} ({})", b.record),
+        fs_hz: b.fs_hz,
+        rpm: Some(b.rpm),
+        channels: vec![pumptwin_data::record::Channel {
+            name: "DE".into(),
+            samples: signal,
+        }],
+    };
+    write_case_and_command(args, id, &rec, &case)
+}
+
 fn write_bench_case(args: &TwinBenchArgs, id: usize) -> Result<()> {
     use pumptwin_twin::bench::{draw::draw_case, synth::synthesize, RECORD_SECONDS};
     let case = draw_case(id, args.seed, RECORD_SECONDS);
@@ -998,11 +1035,22 @@ fn write_bench_case(args: &TwinBenchArgs, id: usize) -> Result<()> {
             samples: synthesize(&case, RECORD_SECONDS),
         }],
     };
+    write_case_and_command(args, id, &rec, &case)
+}
+
+/// Write a bench case's record to `DIR/case-ID.csv`, print the case and the
+/// `twin loop` command that runs it.
+fn write_case_and_command(
+    args: &TwinBenchArgs,
+    id: usize,
+    rec: &Recording,
+    case: &pumptwin_twin::bench::draw::Case,
+) -> Result<()> {
     std::fs::create_dir_all(&args.out).with_context(|| format!("create {}", args.out.display()))?;
     let path = args.out.join(format!("case-{id}.csv"));
-    write_csv(&rec, &path)?;
-    let g = &b.bearing;
-    outln!("{}", serde_json::to_string_pretty(&case)?);
+    write_csv(rec, &path)?;
+    let (b, g) = (&case.base, &case.base.bearing);
+    outln!("{}", serde_json::to_string_pretty(case)?);
     outln!(
         "pumptwin twin loop --input {} --fs {} --rpm {} --bearing {},{},{},{} --out {}",
         path.display(),

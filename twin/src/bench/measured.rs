@@ -245,10 +245,88 @@ fn run_before(
     })
 }
 
+/// Which records have a control, and the order in which injected cases visit the
+/// records (shuffled by the seed, so that every record carries about as many).
+struct Plan {
+    controls: Vec<usize>,
+    order: Vec<usize>,
+}
+
+impl Plan {
+    fn new(bases: &[MeasuredBase], seed: u64, cfg: &LoopConfig) -> Self {
+        let controls = (0..bases.len())
+            .filter(|&i| {
+                let b = &bases[i];
+                b.samples.len() as f64
+                    >= span_len(b, cfg.max_record_seconds) as f64
+                        + CONTROL_GAP_S * f64::from(b.fs_hz)
+            })
+            .collect();
+        let mut order: Vec<usize> = (0..bases.len()).collect();
+        let mut rng = Xoshiro128pp::seed_from_u64(seed ^ 0xBA5E);
+        for i in (1..order.len()).rev() {
+            let j = ((rng.uniform() * (i + 1) as f64) as usize).min(i);
+            order.swap(i, j);
+        }
+        Self { controls, order }
+    }
+
+    /// Job `k` (the controls first, then the injected cases): its record, whether it is
+    /// a control, its case and the signal the loop reads.
+    fn job(
+        &self,
+        bases: &[MeasuredBase],
+        k: usize,
+        seed: u64,
+        cfg: &LoopConfig,
+    ) -> (usize, bool, Case, Vec<f32>) {
+        let (i, last) = if k < self.controls.len() {
+            (self.controls[k], true)
+        } else {
+            (
+                self.order[(k - self.controls.len()) % bases.len().max(1)],
+                false,
+            )
+        };
+        let b = &bases[i];
+        let x = span(b, cfg.max_record_seconds, last);
+        let seconds = x.len() as f64 / f64::from(b.fs_hz);
+        if last {
+            let case = Case {
+                id: k,
+                seed: 0,
+                base: describe(b, x),
+                injected: Vec::new(),
+            };
+            (i, true, case, x.to_vec())
+        } else {
+            let case = draw_measured_case(k, seed, describe(b, x), seconds);
+            let y = inject_measured(&case, x);
+            (i, false, case, y)
+        }
+    }
+}
+
+/// Case `id` of a run on `bases` with `seed` (`id` as in its `cases.jsonl`: the
+/// controls first, then the injected cases): its record's index, the case and the
+/// signal the loop reads. `None` past the last case of a run of `cases` cases.
+pub fn measured_case(
+    bases: &[MeasuredBase],
+    id: usize,
+    cases: usize,
+    seed: u64,
+    cfg: &LoopConfig,
+) -> Option<(usize, Case, Vec<f32>)> {
+    let plan = Plan::new(bases, seed, cfg);
+    (id < plan.controls.len() + cases && !bases.is_empty()).then(|| {
+        let (i, _, case, signal) = plan.job(bases, id, seed, cfg);
+        (i, case, signal)
+    })
+}
+
 /// Run the benchmark on `bases`: each record as it is, a control on each record long
-/// enough for one, and `cases` injected cases drawn from `seed` (record `k mod n` of a
-/// shuffled order, so that every record carries about as many). `progress` is called
-/// after each loop with the number done and the total.
+/// enough for one, and `cases` injected cases drawn from `seed` ([`Plan`]).
+/// `progress` is called after each loop with the number done and the total.
 pub fn run_measured(
     bases: &[MeasuredBase],
     cases: usize,
@@ -257,46 +335,15 @@ pub fn run_measured(
     cfg: &LoopConfig,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> MeasuredRun {
-    let controls: Vec<usize> = (0..bases.len())
-        .filter(|&i| {
-            let b = &bases[i];
-            b.samples.len() as f64
-                >= span_len(b, cfg.max_record_seconds) as f64 + CONTROL_GAP_S * f64::from(b.fs_hz)
-        })
-        .collect();
-    let total = bases.len() + controls.len() + cases;
+    let plan = Plan::new(bases, seed, cfg);
+    let total = bases.len() + plan.controls.len() + cases;
     let done = AtomicUsize::new(0);
     let tick = || progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
     let before = run_before(bases, threads, cfg, &tick);
-    let mut order: Vec<usize> = (0..bases.len()).collect();
-    let mut rng = Xoshiro128pp::seed_from_u64(seed ^ 0xBA5E);
-    for i in (1..order.len()).rev() {
-        let j = ((rng.uniform() * (i + 1) as f64) as usize).min(i);
-        order.swap(i, j);
-    }
-    let jobs = controls.len() + cases;
+    let jobs = plan.controls.len() + cases;
     let outcomes = par_map(jobs, threads, &|k| {
-        let (i, last) = if k < controls.len() {
-            (controls[k], true)
-        } else {
-            (order[(k - controls.len()) % bases.len().max(1)], false)
-        };
+        let (i, last, case, signal) = plan.job(bases, k, seed, cfg);
         let b = &bases[i];
-        let x = span(b, cfg.max_record_seconds, last);
-        let seconds = x.len() as f64 / f64::from(b.fs_hz);
-        let (case, signal) = if last {
-            let case = Case {
-                id: k,
-                seed: 0,
-                base: describe(b, x),
-                injected: Vec::new(),
-            };
-            (case, x.to_vec())
-        } else {
-            let case = draw_measured_case(k, seed, describe(b, x), seconds);
-            let y = inject_measured(&case, x);
-            (case, y)
-        };
         let o = run_scored(b, case, signal, cfg, &before[i].kept);
         tick();
         MeasuredOutcome {
@@ -408,4 +455,57 @@ pub fn markdown(run: &MeasuredRun, command: &str, seconds: f64, threads: usize) 
         ));
     }
     m
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bench::draw::draw_case;
+    use crate::bench::synth::synthesize;
+
+    /// Two records (one long enough for a control) and three injected cases: every
+    /// record is run as it is, the long one has its control, the injected cases visit
+    /// the records, and the case `measured_case` rebuilds is the one the run scored.
+    #[test]
+    fn a_run_on_measured_bases_has_its_controls_and_rebuilds_its_cases() {
+        let cfg = LoopConfig {
+            max_record_seconds: 2.0,
+            fit_seconds: 1.0,
+            residual_seconds: 2.0,
+            max_evaluations: 60,
+            ..LoopConfig::default()
+        };
+        let base = |id: usize, seconds: f64| {
+            let mut c = draw_case(id, 9, seconds);
+            c.base.defect = Some(Defect::OuterRace);
+            c.base.impact_g = 1.0;
+            c.injected.clear();
+            MeasuredBase {
+                record: format!("r{id}"),
+                rig: "test".into(),
+                fs_hz: c.base.fs_hz as f32,
+                rpm: c.base.rpm as f32,
+                bearing: c.base.bearing,
+                defect: c.base.defect,
+                samples: synthesize(&c, seconds),
+            }
+        };
+        let bases = [base(1, 4.5), base(2, 2.0)];
+        let run = run_measured(&bases, 3, 5, 2, &cfg, &|_, _| {});
+        assert_eq!(run.before.len(), 2);
+        assert_eq!(run.outcomes.len(), 4);
+        let controls: Vec<&MeasuredOutcome> =
+            run.outcomes.iter().filter(|o| o.span == "last").collect();
+        assert_eq!(controls.len(), 1);
+        assert_eq!(controls[0].record, "r1");
+        assert!(controls[0].outcome.case.injected.is_empty());
+        for (k, o) in run.outcomes.iter().enumerate().skip(1) {
+            assert!(!o.outcome.case.injected.is_empty());
+            let (i, case, signal) = measured_case(&bases, k, 3, 5, &cfg).unwrap();
+            assert_eq!(bases[i].record, o.record);
+            assert_eq!(case, o.outcome.case);
+            assert_eq!(signal.len(), (2.0 * bases[i].fs_hz) as usize);
+        }
+        assert!(measured_case(&bases, 4, 3, 5, &cfg).is_none());
+    }
 }
