@@ -914,7 +914,7 @@ fn measured_bases(
     use pumptwin_core::diagnosis::FaultType;
     use pumptwin_twin::bench::draw::Defect;
     use pumptwin_twin::bench::measured::MeasuredBase;
-    let bases: Vec<MeasuredBase> = crate::generalization::load_cases(data)?
+    let bases: Vec<MeasuredBase> = crate::rigs::load_cases(data)?
         .into_iter()
         .filter_map(|c| {
             let ch = c.rec.channel("DE").or(c.rec.channels.first())?;

@@ -20,4 +20,5 @@ pub mod predict_report;
 pub mod predict_text;
 pub mod report;
 pub mod report_plot;
+mod rigs;
 pub mod train;
