@@ -325,6 +325,20 @@ impl Draw<'_> {
     }
 }
 
+/// `n` different kinds drawn from `from`, none that needs a defect where `base` has
+/// none.
+fn draw_kinds(d: &mut Draw<'_>, from: &[Kind], n: usize, base: &Base) -> Vec<Kind> {
+    let mut kinds: Vec<Kind> = Vec::new();
+    while kinds.len() < n {
+        let k = from[d.pick(from.len())];
+        if kinds.contains(&k) || (k.needs_defect() && base.defect.is_none()) {
+            continue;
+        }
+        kinds.push(k);
+    }
+    kinds
+}
+
 /// Draw case `id` of a benchmark seeded with `seed`.
 pub fn draw_case(id: usize, seed: u64, seconds: f64) -> Case {
     let case_seed = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ (id as u64).wrapping_add(1);
@@ -340,14 +354,7 @@ pub fn draw_case(id: usize, seed: u64, seconds: f64) -> Case {
     } else {
         2
     };
-    let mut kinds: Vec<Kind> = Vec::new();
-    while kinds.len() < n_effects {
-        let k = KINDS[d.pick(KINDS.len())];
-        if kinds.contains(&k) || (k.needs_defect() && base.defect.is_none()) {
-            continue;
-        }
-        kinds.push(k);
-    }
+    let kinds = draw_kinds(&mut d, &KINDS, n_effects, &base);
     let injected = kinds
         .iter()
         .map(|k| {
@@ -393,14 +400,7 @@ pub fn draw_measured_case(id: usize, seed: u64, mut base: Base, seconds: f64) ->
     let mut rng = Xoshiro128pp::seed_from_u64(case_seed);
     let mut d = Draw(&mut rng);
     let n_effects = if d.u() < 2.0 / 3.0 { 1 } else { 2 };
-    let mut kinds: Vec<Kind> = Vec::new();
-    while kinds.len() < n_effects {
-        let k = MEASURED_KINDS[d.pick(MEASURED_KINDS.len())];
-        if kinds.contains(&k) || (k.needs_defect() && base.defect.is_none()) {
-            continue;
-        }
-        kinds.push(k);
-    }
+    let kinds = draw_kinds(&mut d, &MEASURED_KINDS, n_effects, &base);
     if kinds.contains(&Kind::Compound) {
         base.modes = vec![Mode {
             f_hz: d.lin(1_500.0, 0.38 * base.fs_hz),

@@ -22,6 +22,7 @@
 //! they drive, a speed drift, a stiffening) — its impacts cannot be taken apart.
 
 use super::draw::{draw_measured_case, Base, Case, Defect};
+use super::par_map;
 use super::score::{self, Claim, Outcome};
 use super::synth::inject_measured;
 use crate::closed_loop::{note_clipping, run as run_loop, LoopConfig, LoopInput};
@@ -29,7 +30,6 @@ use crate::twin::Effect;
 use pumptwin_core::bearing::BearingGeometry;
 use pumptwin_core::rng::Xoshiro128pp;
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::Mutex;
 
 /// Least time between the starts of a record's first span and its control span, s.
 pub const CONTROL_GAP_S: f64 = 2.0;
@@ -176,31 +176,6 @@ fn catch<T>(f: impl FnOnce() -> T) -> Result<T, String> {
             .or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string()))
             .unwrap_or_default()
     })
-}
-
-/// `f` over `0..n` on `threads` threads, results in index order.
-fn par_map<R: Send>(n: usize, threads: usize, f: &(dyn Fn(usize) -> R + Sync)) -> Vec<R> {
-    let next = AtomicUsize::new(0);
-    let out: Mutex<Vec<Option<R>>> = Mutex::new((0..n).map(|_| None).collect());
-    std::thread::scope(|s| {
-        for _ in 0..threads.max(1) {
-            s.spawn(|| loop {
-                let i = next.fetch_add(1, Ordering::Relaxed);
-                if i >= n {
-                    break;
-                }
-                let r = f(i);
-                if let Ok(mut v) = out.lock() {
-                    v[i] = Some(r);
-                }
-            });
-        }
-    });
-    out.into_inner()
-        .unwrap_or_default()
-        .into_iter()
-        .flatten()
-        .collect()
 }
 
 /// The loop on each record's first span as it is.

@@ -69,21 +69,33 @@ pub fn run(
     cfg: &LoopConfig,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Vec<Outcome> {
-    let next = AtomicUsize::new(0);
     let done = AtomicUsize::new(0);
-    let out: Mutex<Vec<Option<Outcome>>> = Mutex::new(vec![None; cases]);
+    par_map(cases, threads, &|id| {
+        let o = run_case(draw_case(id, seed, RECORD_SECONDS), cfg);
+        progress(done.fetch_add(1, Ordering::Relaxed) + 1);
+        o
+    })
+}
+
+/// `f` over `0..n` on `threads` threads, results in index order.
+pub(crate) fn par_map<R: Send>(
+    n: usize,
+    threads: usize,
+    f: &(dyn Fn(usize) -> R + Sync),
+) -> Vec<R> {
+    let next = AtomicUsize::new(0);
+    let out: Mutex<Vec<Option<R>>> = Mutex::new((0..n).map(|_| None).collect());
     std::thread::scope(|s| {
         for _ in 0..threads.max(1) {
             s.spawn(|| loop {
-                let id = next.fetch_add(1, Ordering::Relaxed);
-                if id >= cases {
+                let i = next.fetch_add(1, Ordering::Relaxed);
+                if i >= n {
                     break;
                 }
-                let o = run_case(draw_case(id, seed, RECORD_SECONDS), cfg);
+                let r = f(i);
                 if let Ok(mut v) = out.lock() {
-                    v[id] = Some(o);
+                    v[i] = Some(r);
                 }
-                progress(done.fetch_add(1, Ordering::Relaxed) + 1);
             });
         }
     });
