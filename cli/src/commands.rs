@@ -861,7 +861,6 @@ pub fn run_twin(cmd: &TwinCmd) -> Result<()> {
 
 fn run_twin_bench(args: &TwinBenchArgs) -> Result<()> {
     use pumptwin_twin::bench::{run, score};
-    use std::io::Write;
     ensure!(args.cases > 0, "--cases 0: nothing to run");
     if let (Some(id), None) = (args.write_case, &args.measured) {
         return write_bench_case(args, id);
@@ -878,16 +877,6 @@ fn run_twin_bench(args: &TwinBenchArgs) -> Result<()> {
         eprint!("\r{done}/{} cases", args.cases);
     });
     eprintln!();
-    std::fs::create_dir_all(&args.out).with_context(|| format!("create {}", args.out.display()))?;
-    let path = args.out.join("cases.jsonl");
-    let mut f = std::io::BufWriter::new(
-        std::fs::File::create(&path).with_context(|| format!("create {}", path.display()))?,
-    );
-    for o in &outcomes {
-        serde_json::to_writer(&mut f, o)?;
-        writeln!(f)?;
-    }
-    f.flush()?;
     let summary = score::summarize(&outcomes);
     let command = format!(
         "pumptwin twin bench --cases {} --seed {}",
@@ -899,9 +888,35 @@ fn run_twin_bench(args: &TwinBenchArgs) -> Result<()> {
         t0.elapsed().as_secs_f64(),
         args.cases
     ));
-    std::fs::write(args.out.join("report.md"), &md)?;
+    write_bench_outputs(args, &|f| json_lines(f, &outcomes), &md)
+}
+
+/// One JSON line per item.
+fn json_lines<T: serde::Serialize>(f: &mut dyn Write, items: &[T]) -> Result<()> {
+    for item in items {
+        serde_json::to_writer(&mut *f, item)?;
+        writeln!(f)?;
+    }
+    Ok(())
+}
+
+/// A bench's outputs: `DIR/cases.jsonl` (its lines written by `lines`),
+/// `DIR/report.md` and `--doc` holding `md`, and `md` printed.
+fn write_bench_outputs(
+    args: &TwinBenchArgs,
+    lines: &dyn Fn(&mut dyn Write) -> Result<()>,
+    md: &str,
+) -> Result<()> {
+    std::fs::create_dir_all(&args.out).with_context(|| format!("create {}", args.out.display()))?;
+    let path = args.out.join("cases.jsonl");
+    let mut f = std::io::BufWriter::new(
+        std::fs::File::create(&path).with_context(|| format!("create {}", path.display()))?,
+    );
+    lines(&mut f)?;
+    f.flush()?;
+    std::fs::write(args.out.join("report.md"), md)?;
     if let Some(doc) = &args.doc {
-        std::fs::write(doc, &md).with_context(|| format!("write {}", doc.display()))?;
+        std::fs::write(doc, md).with_context(|| format!("write {}", doc.display()))?;
     }
     outln!("{md}");
     Ok(())
@@ -946,7 +961,6 @@ fn measured_bases(
 /// `pumptwin twin bench --measured DIR`.
 fn run_measured_bench(args: &TwinBenchArgs, data: &std::path::Path, threads: usize) -> Result<()> {
     use pumptwin_twin::bench::measured::{markdown, run_measured};
-    use std::io::Write;
     let t0 = std::time::Instant::now();
     let bases = measured_bases(data)?;
     let cfg = pumptwin_twin::closed_loop::LoopConfig::default();
@@ -969,20 +983,6 @@ fn run_measured_bench(args: &TwinBenchArgs, data: &std::path::Path, threads: usi
         },
     );
     eprintln!();
-    std::fs::create_dir_all(&args.out).with_context(|| format!("create {}", args.out.display()))?;
-    let path = args.out.join("cases.jsonl");
-    let mut f = std::io::BufWriter::new(
-        std::fs::File::create(&path).with_context(|| format!("create {}", path.display()))?,
-    );
-    for b in &run.before {
-        serde_json::to_writer(&mut f, b)?;
-        writeln!(f)?;
-    }
-    for o in &run.outcomes {
-        serde_json::to_writer(&mut f, o)?;
-        writeln!(f)?;
-    }
-    f.flush()?;
     let command = format!(
         "pumptwin twin bench --measured {} --cases {} --seed {}",
         data.display(),
@@ -990,12 +990,11 @@ fn run_measured_bench(args: &TwinBenchArgs, data: &std::path::Path, threads: usi
         args.seed
     );
     let md = markdown(&run, &command, t0.elapsed().as_secs_f64(), threads);
-    std::fs::write(args.out.join("report.md"), &md)?;
-    if let Some(doc) = &args.doc {
-        std::fs::write(doc, &md).with_context(|| format!("write {}", doc.display()))?;
-    }
-    outln!("{md}");
-    Ok(())
+    let lines = |f: &mut dyn Write| {
+        json_lines(f, &run.before)?;
+        json_lines(f, &run.outcomes)
+    };
+    write_bench_outputs(args, &lines, &md)
 }
 
 /// `--measured DIR --write-case ID`: the case's signal as a CSV and its `twin loop`

@@ -24,6 +24,15 @@ pub struct Target {
 }
 
 impl Target {
+    /// The fit's cost of a simulated signature against this target: Σ r² of
+    /// [`residual_vector`].
+    pub fn cost(&self, sim: &Signature) -> f32 {
+        residual_vector(sim, &self.psd_db, &self.env_db, &self.meas, &self.cfg)
+            .iter()
+            .map(|v| v * v)
+            .sum()
+    }
+
     /// Signature of a measured signal.
     pub fn of(x: &[f32], cfg: SignatureConfig) -> Result<Self, SignatureError> {
         let meas = Signature::of(x, &cfg)?;

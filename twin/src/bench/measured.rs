@@ -22,10 +22,10 @@
 //! they drive, a speed drift, a stiffening) — its impacts cannot be taken apart.
 
 use super::draw::{draw_measured_case, Base, Case, Defect};
-use super::par_map;
 use super::score::{self, Claim, Outcome};
 use super::synth::inject_measured;
-use crate::closed_loop::{note_clipping, run as run_loop, LoopConfig, LoopInput};
+use super::{par_map, score_signal};
+use crate::closed_loop::LoopConfig;
 use crate::twin::Effect;
 use pumptwin_core::bearing::BearingGeometry;
 use pumptwin_core::rng::Xoshiro128pp;
@@ -144,40 +144,6 @@ fn describe(b: &MeasuredBase, x: &[f32]) -> Base {
     }
 }
 
-/// Run the loop on `x` of base `b` and score it against `case` and `before`.
-fn run_scored(
-    b: &MeasuredBase,
-    case: Case,
-    x: Vec<f32>,
-    cfg: &LoopConfig,
-    before: &[Claim],
-) -> Outcome {
-    let input = LoopInput {
-        signal: x,
-        fs_hz: b.fs_hz,
-        rpm: b.rpm,
-        bearing: b.bearing,
-        held_runs: None,
-    };
-    match catch(|| run_loop(&input, cfg)) {
-        Ok(Ok((mut report, _))) => {
-            note_clipping(&mut report, &input.signal);
-            score::score(case, &report, before)
-        }
-        Ok(Err(e)) => score::failed(case, e.to_string()),
-        Err(why) => score::failed(case, format!("panic: {why}")),
-    }
-}
-
-fn catch<T>(f: impl FnOnce() -> T) -> Result<T, String> {
-    std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)).map_err(|p| {
-        p.downcast_ref::<String>()
-            .cloned()
-            .or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string()))
-            .unwrap_or_default()
-    })
-}
-
 /// The loop on each record's first span as it is.
 fn run_before(
     bases: &[MeasuredBase],
@@ -194,7 +160,7 @@ fn run_before(
             base: describe(b, &x),
             injected: Vec::new(),
         };
-        let o = run_scored(b, case, x, cfg, &[]);
+        let o = score_signal(case, x, cfg, &[]);
         progress();
         Before {
             record: b.record.clone(),
@@ -319,7 +285,7 @@ pub fn run_measured(
     let outcomes = par_map(jobs, threads, &|k| {
         let (i, last, case, signal) = plan.job(bases, k, seed, cfg);
         let b = &bases[i];
-        let o = run_scored(b, case, signal, cfg, &before[i].kept);
+        let o = score_signal(case, signal, cfg, &before[i].kept);
         tick();
         MeasuredOutcome {
             record: b.record.clone(),

@@ -34,18 +34,30 @@ pub const RECORD_SECONDS: f64 = 6.0;
 /// case's outcome (counted in the report), not the benchmark's end.
 pub fn run_case(case: Case, cfg: &LoopConfig) -> Outcome {
     let x = synth::synthesize(&case, RECORD_SECONDS);
+    score_signal(case, x, cfg, &[])
+}
+
+/// Run the loop with `cfg` on `x`, the record of `case` (its rate, speed and geometry
+/// from `case.base`), and score it against the case's injections and `before` (as in
+/// [`score::judge`]). A loop error or a panic is the outcome, not the benchmark's end.
+pub(crate) fn score_signal(
+    case: Case,
+    x: Vec<f32>,
+    cfg: &LoopConfig,
+    before: &[score::Claim],
+) -> Outcome {
     let input = LoopInput {
-        signal: x.clone(),
+        signal: x,
         fs_hz: case.base.fs_hz as f32,
         rpm: case.base.rpm as f32,
         bearing: case.base.bearing,
         held_runs: None,
     };
-    let result = std::panic::catch_unwind(|| run_loop(&input, cfg));
+    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| run_loop(&input, cfg)));
     match result {
         Ok(Ok((mut report, _))) => {
-            note_clipping(&mut report, &x);
-            score::score(case, &report, &[])
+            note_clipping(&mut report, &input.signal);
+            score::score(case, &report, before)
         }
         Ok(Err(e)) => score::failed(case, e.to_string()),
         Err(p) => {

@@ -52,7 +52,11 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
         stop_reason: format!("reached the step limit ({})", cfg.max_steps),
         residual_noise_like: false,
     };
-    let psd_scatter = psd_scatter_db(&s.x, &s.sig_fit);
+    // The halves the effects are judged on are the ones the scatter compares.
+    let psd_scatter = s
+        .halves
+        .as_ref()
+        .map(|[a, b]| record::halves_scatter_db(&a.meas, &b.meas, &s.sig_fit));
     let last_analysis = loop {
         let (analysis, next) = round(&s, &mut st, psd_scatter)?;
         if next == Next::Stop {

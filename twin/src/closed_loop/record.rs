@@ -150,9 +150,15 @@ pub fn psd_scatter_db(x: &[f32], cfg: &SignatureConfig) -> Option<f32> {
     }
     let a = Signature::of(&x[..half], cfg).ok()?;
     let b = Signature::of(&x[half..2 * half], cfg).ok()?;
+    Some(halves_scatter_db(&a, &b, cfg))
+}
+
+/// [`psd_scatter_db`] of a record whose halves' signatures `a` and `b` (at `cfg`) are
+/// already computed.
+pub(super) fn halves_scatter_db(a: &Signature, b: &Signature, cfg: &SignatureConfig) -> f32 {
     let (da, db) = (to_db(&a.psd, &a.psd), to_db(&b.psd, &a.psd));
     let bins = cfg.psd_bins();
     let n = bins.clone().count().max(1) as f32;
     let ms = bins.map(|k| (da[k] - db[k]).powi(2)).sum::<f32>() / n;
-    Some((ms / 2.0).sqrt())
+    (ms / 2.0).sqrt()
 }

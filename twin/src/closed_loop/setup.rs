@@ -5,7 +5,8 @@
 use super::record::{ac_couple, held_runs, psd_low_edge, MAX_RMS_G};
 use super::types::{LoopConfig, LoopError, LoopInput};
 use crate::fit::{FitConfig, Target};
-use crate::signature::{residual_vector, Signature, SignatureConfig, SignatureError};
+use crate::signature::{Signature, SignatureConfig, SignatureError};
+use crate::trace::context::has;
 use crate::twin::{EffectKind, OperatingPoint, TwinModel};
 
 /// Relative gain that keeps the first fit iterating: its Θ are the trainer's F_map
@@ -129,10 +130,7 @@ impl<'a> Setup<'a> {
         let Some(halves) = &self.halves else {
             return Ok(None);
         };
-        let drifts = m
-            .effects
-            .iter()
-            .any(|(e, _)| e.kind() == EffectKind::SpeedDrift);
+        let drifts = has(m, EffectKind::SpeedDrift);
         let h = self.x.len() / 2;
         let n = if drifts { 2 * h } else { self.fit_cfg.n_sim };
         let y = m
@@ -146,16 +144,7 @@ impl<'a> Setup<'a> {
             let s = sig(&y)?;
             [s.clone(), s]
         };
-        let cost = |s: &Signature, t: &Target| -> f32 {
-            residual_vector(s, &t.psd_db, &t.env_db, &t.meas, &t.cfg)
-                .iter()
-                .map(|v| v * v)
-                .sum()
-        };
-        Ok(Some([
-            cost(&sigs[0], &halves[0]),
-            cost(&sigs[1], &halves[1]),
-        ]))
+        Ok(Some([halves[0].cost(&sigs[0]), halves[1].cost(&sigs[1])]))
     }
 
     /// The model `m` simulated over the residual's span, and its signature.

@@ -2,13 +2,15 @@
 //! starts (the effect at its typical strength with the measurement noise lifted, and
 //! the effect at a twentieth of it with the model as it was), and judged: does it
 //! explain its own evidence, lower the error — in the whole record and in each of its
-//! halves — and keep the shown errors from rising on balance. Rival readings of the same lines are tried too, the clearly better kept.
+//! halves — and keep the shown errors from rising on balance. Rival readings of the
+//! same lines are tried too, the clearly better kept.
 
 use super::setup::Setup;
 use super::types::{LoopError, RejectedCandidate};
 use crate::fit::{evaluate, fit, FitConfig, FitError, FitResult, Target};
 use crate::residual::{evidence_gap, Candidate, Check};
 use crate::signature::{error_figures, to_db, Signature, SignatureConfig};
+use crate::trace::context::has;
 use crate::twin::EffectKind;
 use crate::twin::{Effect, TwinModel};
 
@@ -250,10 +252,7 @@ impl Trial<'_> {
         }
         // A drifting speed builds up over the whole record: a model with a drift is
         // simulated over all of it (three times the fit span).
-        let drifts = start
-            .effects
-            .iter()
-            .any(|(e, _)| e.kind() == EffectKind::SpeedDrift);
+        let drifts = has(&start, EffectKind::SpeedDrift);
         // A term added at the sensor is fitted with the structure held: it has
         // nothing to trade with the structure but the measurement noise (refitted
         // with it), and every evaluation then reuses the simulated structure
@@ -457,13 +456,10 @@ impl Trial<'_> {
         } else {
             self.s.cfg.min_relative_gain
         };
-        let replicated = if shown_ok && (local_ok || global_ok) && undone.is_none() {
-            self.in_both_halves(trial, 0.5 * required * current.cost)?
-        } else {
-            true
-        };
+        let whole_ok = shown_ok && (local_ok || global_ok) && undone.is_none();
+        let replicated = !whole_ok || self.in_both_halves(trial, 0.5 * required * current.cost)?;
         Ok(Verdict {
-            passes: shown_ok && (local_ok || global_ok) && undone.is_none() && replicated,
+            passes: whole_ok && replicated,
             undone,
             explained,
             shown_ok,
