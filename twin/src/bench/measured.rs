@@ -167,16 +167,7 @@ fn run_before(
             rig: b.rig.clone(),
             fault_true: o.fault_true.clone(),
             fault_claimed: o.fault_claimed.clone(),
-            kept: o
-                .claims
-                .iter()
-                .enumerate()
-                .map(|(k, name)| Claim {
-                    name: name.clone(),
-                    // `clipping` and `dropouts` come after the kept effects.
-                    effect: o.claimed_effects.get(k).cloned(),
-                })
-                .collect(),
+            kept: o.claims_made(),
             claims: o.claims,
             effects: o.claimed_effects,
             psd_db: (o.psd_initial_db, o.psd_final_db),

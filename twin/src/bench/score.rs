@@ -70,6 +70,21 @@ pub struct Outcome {
     pub error: Option<String>,
 }
 
+impl Outcome {
+    /// The claims behind `claims` and `claimed_effects`, as [`claims`] made them
+    /// (the kept effects first, `clipping` and `dropouts` after, without an effect).
+    pub fn claims_made(&self) -> Vec<Claim> {
+        self.claims
+            .iter()
+            .enumerate()
+            .map(|(k, name)| Claim {
+                name: name.clone(),
+                effect: self.claimed_effects.get(k).cloned(),
+            })
+            .collect()
+    }
+}
+
 /// The claims a report makes.
 pub fn claims(report: &LoopReport) -> Vec<Claim> {
     let mut c: Vec<Claim> = report

@@ -45,7 +45,7 @@ pub fn synthesize(case: &Case, seconds: f64) -> Vec<f32> {
     for v in sim.iter_mut() {
         *v += b.noise_g * rng.normal();
     }
-    let mut x = decimate(&sim, fs_sim);
+    let x = decimate(&sim, fs_sim);
     let base_rms = rms(&x);
     let mut sensor = vec![0.0f64; n];
     for d in &case.injected {
@@ -58,13 +58,7 @@ pub fn synthesize(case: &Case, seconds: f64) -> Vec<f32> {
             &mut rng,
         );
     }
-    for (o, s) in x.iter_mut().zip(decimate(&sensor, fs_sim)) {
-        *o += s;
-    }
-    for d in &case.injected {
-        acquisition(&d.injection, &mut x);
-    }
-    x.into_iter().map(|v| v as f32).collect()
+    at_the_sensor(case, x, &sensor, fs_sim)
 }
 
 /// A measured record `x` (at `case.base.fs_hz`, the speed `case.base.rpm`) with the
@@ -79,7 +73,7 @@ pub fn inject_measured(case: &Case, x: &[f32]) -> Vec<f32> {
     let n = x.len() * OVERSAMPLE;
     let mut rng = Xoshiro128pp::seed_from_u64(case.seed ^ 0x5EED);
     let turns = shaft_turns(b, case, n, fs_sim);
-    let mut out: Vec<f64> = x.iter().map(|&v| f64::from(v)).collect();
+    let out: Vec<f64> = x.iter().map(|&v| f64::from(v)).collect();
     let base_rms = rms(&out);
     let mut sensor = vec![0.0f64; n];
     for d in &case.injected {
@@ -101,13 +95,20 @@ pub fn inject_measured(case: &Case, x: &[f32]) -> Vec<f32> {
             }
         }
     }
-    for (o, s) in out.iter_mut().zip(decimate(&sensor, fs_sim)) {
+    at_the_sensor(case, out, &sensor, fs_sim)
+}
+
+/// The record `x` at the acquisition rate with what reaches the sensor beside the
+/// structure (`sensor`, at the simulation rate) added through the anti-alias filter,
+/// then the acquisition's clipping and dropouts.
+fn at_the_sensor(case: &Case, mut x: Vec<f64>, sensor: &[f64], fs_sim: f64) -> Vec<f32> {
+    for (o, s) in x.iter_mut().zip(decimate(sensor, fs_sim)) {
         *o += s;
     }
     for d in &case.injected {
-        acquisition(&d.injection, &mut out);
+        acquisition(&d.injection, &mut x);
     }
-    out.into_iter().map(|v| v as f32).collect()
+    x.into_iter().map(|v| v as f32).collect()
 }
 
 /// Shaft angle in turns at every simulation sample, with a linear speed drift if one
