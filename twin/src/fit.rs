@@ -107,7 +107,7 @@ pub fn evaluate(
 }
 
 /// Solve the symmetric positive definite system `a·x = b` (Cholesky); `None` if singular.
-fn solve_spd(a: &[Vec<f64>], b: &[f64]) -> Option<Vec<f64>> {
+pub(crate) fn solve_spd(a: &[Vec<f64>], b: &[f64]) -> Option<Vec<f64>> {
     let n = b.len();
     let mut l = vec![vec![0.0f64; n]; n];
     for i in 0..n {

@@ -49,6 +49,21 @@ pub const OVERSAMPLE: usize = 4;
 /// Impact width σ, s (broadband to ≈ 8 kHz, beyond the band limit).
 pub const IMPACT_SIGMA_S: f64 = 2.0e-5;
 
+/// The finite-difference step of the slip (`ln_jitter`): a secant over a third of its
+/// value. The slip re-times every impact, so the signatures' fine structure moves with
+/// it and the cost is rough at the 1 % step every other parameter takes: from that
+/// step the fit left the slip where it started (a benchmark control with 1.9 % slip:
+/// 0.5 % → 0.6 %, the strength spread taking up the comb's lost contrast at 0.74
+/// against 0.27); from this one it moves.
+pub const SLIP_STEP: f64 = 0.3;
+
+/// Highest natural frequency a mode is simulated at, as a share of the record's rate:
+/// a mode past the compared band's top shows only as the rise into it, so a fit may
+/// push it on where the cost no longer sees it; at the RK4 step (four per sample) this
+/// keeps `ωh` at 0.71, well inside RK4's stability limit (2.8), where a mode walked to
+/// 40 kHz diverged (a benchmark case, `--seed 2`, case 292).
+pub const MODE_MAX_REL_FS: f64 = 0.45;
+
 /// A named unconstrained parameter.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Param {
@@ -176,7 +191,9 @@ impl TwinModel {
             } else {
                 name
             };
-            let step = if name.starts_with("ln_") || name.starts_with("logit_") {
+            let step = if name == "ln_jitter" {
+                SLIP_STEP
+            } else if name.starts_with("ln_") || name.starts_with("logit_") {
                 1e-2
             } else {
                 1e-4
@@ -200,6 +217,21 @@ impl TwinModel {
             }
         }
         m.effects.push((effect, first));
+        m
+    }
+
+    /// This model without its `i`-th effect and that effect's parameters.
+    pub fn without_effect(&self, i: usize) -> Self {
+        let mut m = self.clone();
+        let Some(&(_, first)) = self.effects.get(i) else {
+            return m;
+        };
+        let end = self.effects.get(i + 1).map_or(self.params.len(), |e| e.1);
+        m.params.drain(first..end);
+        m.effects.remove(i);
+        for e in m.effects.iter_mut().skip(i) {
+            e.1 -= end - first;
+        }
         m
     }
 
@@ -299,10 +331,11 @@ impl TwinModel {
     /// Natural frequencies of the modes the model has: the base mode, then every
     /// extra resonance, Hz.
     pub fn mode_frequencies(&self) -> Vec<f64> {
-        let mut f = vec![self.get("ln_fn_hz").map_or(3000.0, f64::exp)];
+        let top = MODE_MAX_REL_FS * f64::from(self.op.fs_hz);
+        let mut f = vec![self.get("ln_fn_hz").map_or(3000.0, f64::exp).min(top)];
         for (_, p) in self.effects_of(EffectKind::ExtraResonance) {
             if let Some(first) = p.first() {
-                f.push(first.value.exp());
+                f.push(first.value.exp().min(top));
             }
         }
         f
@@ -475,7 +508,8 @@ impl TwinModel {
         let n_sim = n_out * OVERSAMPLE;
         let shaft = f64::from(self.op.freqs.shaft);
         let get = |n: &str| self.get(n);
-        let fn_hz = get("ln_fn_hz").map_or(3000.0, f64::exp);
+        let top = MODE_MAX_REL_FS * fs;
+        let fn_hz = get("ln_fn_hz").map_or(3000.0, f64::exp).min(top);
         let zeta = get("ln_zeta").map_or(0.05, f64::exp);
         let drift = self
             .effect_params(EffectKind::SpeedDrift)
@@ -707,7 +741,14 @@ impl TwinModel {
             .effects_of(EffectKind::ExtraResonance)
             .iter()
             .filter(|(_, p)| p.len() >= 3)
-            .map(|(_, p)| (p[0].value.exp(), p[1].value.exp(), p[2].value.exp()))
+            .map(|(_, p)| {
+                let top = MODE_MAX_REL_FS * f64::from(self.op.fs_hz);
+                (
+                    p[0].value.exp().min(top),
+                    p[1].value.exp(),
+                    p[2].value.exp(),
+                )
+            })
             .collect();
         if let Some(&(f2, z2, share)) = extra_modes.first() {
             let w2 = 2.0 * std::f64::consts::PI * f2;
@@ -968,6 +1009,28 @@ mod tests {
 
     /// Two added structural modes (the second by modal superposition) each raise the
     /// rendered PSD at their frequency; the model without them has no such peaks.
+    #[test]
+    fn an_effect_taken_out_leaves_the_model_it_was_added_to() {
+        let op = OperatingPoint {
+            fs_hz: 12_000.0,
+            freqs: pumptwin_core::bearing::BearingGeometry::CWRU_6205_DE.frequencies(29.95),
+        };
+        let none = |_: f64, _: f64| None;
+        let base = TwinModel::base(op, Some(DefectLocation::OuterRace), 3000.0, 0.05, 1.0, 0.01);
+        let one = base.with_effect(Effect::ExtraResonance { f_hz: 1800.0 }, &none);
+        let two = one.with_effect(Effect::StrengthSpread, &none);
+        assert_eq!(two.without_effect(1), one);
+        let only_spread = base.with_effect(Effect::StrengthSpread, &none);
+        // The spread's parameter keeps its name; its index moves down.
+        let taken = two.without_effect(0);
+        assert_eq!(taken, only_spread);
+        assert_eq!(
+            taken.without_effect(5),
+            only_spread,
+            "an index past the effects changes nothing"
+        );
+    }
+
     #[test]
     fn further_modes_add_resonances_by_superposition() {
         let op = OperatingPoint {

@@ -930,14 +930,15 @@ fn a_loop_run_writes_its_report_plots_and_spectra() {
 /// than any steady model, with no line or band to say why: the loop reads random
 /// impacts ringing the structure's mode (within 5 % of the simulated radial mode) and
 /// the residual left is noise-like. The same record without the pulses claims nothing.
-/// Seeds 1 and 3: of seeds 1–8 the impacts are read on 1, 3 and 7; on the others the
+/// Seeds 1 and 7: of seeds 1–8 the impacts are read on 1 and 7 (on 1, 3 and 7 before
+/// the base's structure was identified on the PSD, 2026-11-27); on the others the
 /// refit matches the kurtosis (cost −60 %) but the model's own few bursts, at times
 /// that are not the record's, scatter its spectra (PSD +0.02 to +0.22 dB, envelope
 /// +10 to +22 %) and the judge rejects them — no other effect is claimed on any seed,
 /// nor on any control.
 #[test]
 fn random_impacts_on_a_healthy_bearing_ring_the_structure() {
-    for seed in [1, 3] {
+    for seed in [1, 7] {
         let mut spec = SimulationSpec::cwru_like(None, RPM, 4.0, seed);
         let p = &spec.params;
         let fn_hz = (p.stiffness_radial / p.mass).sqrt() / (2.0 * std::f64::consts::PI);
