@@ -107,7 +107,7 @@ pub fn evaluate(
 }
 
 /// Solve the symmetric positive definite system `a·x = b` (Cholesky); `None` if singular.
-pub(crate) fn solve_spd(a: &[Vec<f64>], b: &[f64]) -> Option<Vec<f64>> {
+fn solve_spd(a: &[Vec<f64>], b: &[f64]) -> Option<Vec<f64>> {
     let n = b.len();
     let mut l = vec![vec![0.0f64; n]; n];
     for i in 0..n {
@@ -133,6 +133,48 @@ pub(crate) fn solve_spd(a: &[Vec<f64>], b: &[f64]) -> Option<Vec<f64>> {
         x[i] = (y[i] - ((i + 1)..n).map(|k| l[k][i] * x[k]).sum::<f64>()) / l[i][i];
     }
     Some(x)
+}
+
+/// The Gauss–Newton normal equations of the Jacobian's columns `jac` (one per free
+/// parameter) and the residual `r`: `(JᵀJ, −Jᵀr)`.
+pub(crate) fn normal_equations<R: Copy + Into<f64>>(
+    jac: &[Vec<f64>],
+    r: &[R],
+) -> (Vec<Vec<f64>>, Vec<f64>) {
+    let p = jac.len();
+    let mut jtj = vec![vec![0.0f64; p]; p];
+    let mut neg_g = vec![0.0f64; p];
+    for i in 0..p {
+        for j in 0..=i {
+            let s: f64 = jac[i].iter().zip(&jac[j]).map(|(a, b)| a * b).sum();
+            jtj[i][j] = s;
+            jtj[j][i] = s;
+        }
+        let g: f64 = jac[i].iter().zip(r).map(|(a, b)| a * (*b).into()).sum();
+        neg_g[i] = -g;
+    }
+    (jtj, neg_g)
+}
+
+/// The Levenberg–Marquardt step of the normal equations `(jtj, neg_g)` at damping
+/// `lambda` (Marquardt's, on the diagonal), shortened so that no parameter moves by
+/// more than `max_step`; `None` where the damped system is singular.
+pub(crate) fn damped_step(
+    jtj: &[Vec<f64>],
+    neg_g: &[f64],
+    lambda: f64,
+    max_step: f64,
+) -> Option<Vec<f64>> {
+    let mut a = jtj.to_vec();
+    for (i, row) in a.iter_mut().enumerate() {
+        row[i] += lambda * row[i].max(1e-9) + 1e-12;
+    }
+    let mut delta = solve_spd(&a, neg_g)?;
+    let biggest = delta.iter().fold(0.0f64, |m, d| m.max(d.abs()));
+    if biggest > max_step {
+        delta.iter_mut().for_each(|d| *d *= max_step / biggest);
+    }
+    Some(delta)
 }
 
 /// Levenberg–Marquardt from `start`.
@@ -163,32 +205,14 @@ pub fn fit(start: &TwinModel, target: &Target, cfg: &FitConfig) -> Result<FitRes
                 *c = f64::from(a - b) / step;
             }
         }
-        let mut jtj = vec![vec![0.0f64; p]; p];
-        let mut jtr = vec![0.0f64; p];
-        for i in 0..p {
-            for j in 0..=i {
-                let s: f64 = jac[i].iter().zip(&jac[j]).map(|(a, b)| a * b).sum();
-                jtj[i][j] = s;
-                jtj[j][i] = s;
-            }
-            jtr[i] = jac[i].iter().zip(&r).map(|(a, b)| a * f64::from(*b)).sum();
-        }
+        let (jtj, neg_g) = normal_equations(&jac, &r);
         let mut improved = false;
         for _ in 0..6 {
-            let mut a = jtj.clone();
-            for (i, row) in a.iter_mut().enumerate() {
-                row[i] += lambda * row[i].max(1e-9) + 1e-12;
-            }
-            let neg_g: Vec<f64> = jtr.iter().map(|v| -v).collect();
-            let Some(mut delta) = solve_spd(&a, &neg_g) else {
+            // Trust region in unconstrained units: no parameter moves by more than 0.7.
+            let Some(delta) = damped_step(&jtj, &neg_g, lambda, 0.7) else {
                 lambda *= 4.0;
                 continue;
             };
-            // Trust region in unconstrained units: no parameter moves by more than 0.7.
-            let biggest = delta.iter().fold(0.0f64, |m, d| m.max(d.abs()));
-            if biggest > 0.7 {
-                delta.iter_mut().for_each(|d| *d *= 0.7 / biggest);
-            }
             let mut trial = theta.clone();
             for (&i, d) in free.iter().zip(&delta) {
                 trial[i] += d;

@@ -717,6 +717,22 @@ pub fn band_carries_defect(x: &[f32], fs: f32, lo: f32, hi: f32, rate_hz: f32, n
     }
 }
 
+/// How much less the defect's rhythm (`rate_hz`) stands out of the envelope of the
+/// record `x` than of the model's `sim` in the band `[lo, hi]` Hz, dB
+/// ([`band_carries_defect`] of each): a mode the impacts ring carries it as the rest of
+/// the response does; noise added at the sensor in that band dilutes it.
+pub fn rhythm_dilution_db(
+    sim: &[f32],
+    x: &[f32],
+    fs: f32,
+    (lo, hi): (f32, f32),
+    rate_hz: f32,
+    n: usize,
+) -> f32 {
+    band_carries_defect(sim, fs, lo, hi, rate_hz, n)
+        - band_carries_defect(x, fs, lo, hi, rate_hz, n)
+}
+
 /// Kurtosis of `x` band-passed to `[lo, hi]` Hz (FFT-domain, over the whole record
 /// zero-padded to a power of two), or `None` for an empty band. A Gaussian band reads
 /// 3; a band carried by isolated bursts reads far more.

@@ -28,7 +28,7 @@ use super::modal::{self, mode_search_bins, psd_peaks, MIN_BASE_MODE_ZETA, MODE_S
 use super::setup::Setup;
 use super::types::LoopError;
 use crate::fit::{evaluate, fit, FitConfig, FitError, FitResult, Target};
-use crate::residual::{band_carries_defect, refine_comb_rate};
+use crate::residual::{refine_comb_rate, rhythm_dilution_db};
 use crate::signature::{to_db, Signature};
 use crate::trace::context::BAND_DILUTION_DB;
 use crate::twin::{Effect, EffectKind, OperatingPoint, TwinModel};
@@ -173,8 +173,7 @@ fn noise_at_the_sensor(s: &Setup<'_>, model: &TwinModel, i: usize) -> Result<boo
     let fs = s.op.fs_hz;
     let sim = model.render(s.fit_cfg.n_sim, s.fit_cfg.seed)?;
     let n = s.sig_fit.env_n;
-    let dilution = band_carries_defect(&sim, fs, lo, hi, rate, n)
-        - band_carries_defect(&s.x, fs, lo, hi, rate, n);
+    let dilution = rhythm_dilution_db(&sim, &s.x, fs, (lo, hi), rate, n);
     Ok(dilution >= BAND_DILUTION_DB)
 }
 

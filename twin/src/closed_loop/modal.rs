@@ -317,31 +317,13 @@ impl Problem {
                         .collect()
                 })
                 .collect();
-            let p = free.len();
-            let mut jtj = vec![vec![0.0; p]; p];
-            let mut neg_g = vec![0.0; p];
-            for i in 0..p {
-                for j in 0..=i {
-                    let s: f64 = jac[i].iter().zip(&jac[j]).map(|(a, b)| a * b).sum();
-                    jtj[i][j] = s;
-                    jtj[j][i] = s;
-                }
-                neg_g[i] = -jac[i].iter().zip(&r).map(|(a, b)| a * b).sum::<f64>();
-            }
+            let (jtj, neg_g) = crate::fit::normal_equations(&jac, &r);
             let mut improved = false;
             for _ in 0..8 {
-                let mut a = jtj.clone();
-                for (i, row) in a.iter_mut().enumerate() {
-                    row[i] += lambda * row[i].max(1e-9) + 1e-12;
-                }
-                let Some(mut delta) = crate::fit::solve_spd(&a, &neg_g) else {
+                let Some(delta) = crate::fit::damped_step(&jtj, &neg_g, lambda, 0.5) else {
                     lambda *= 4.0;
                     continue;
                 };
-                let biggest = delta.iter().fold(0.0f64, |m, d| m.max(d.abs()));
-                if biggest > 0.5 {
-                    delta.iter_mut().for_each(|d| *d *= 0.5 / biggest);
-                }
                 let mut trial = theta.clone();
                 for (&i, d) in free.iter().zip(&delta) {
                     trial[i] += d;

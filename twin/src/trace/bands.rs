@@ -7,8 +7,8 @@ use super::context::{
 };
 use crate::residual::Kind;
 use crate::residual::{
-    band_carries_defect, band_kurtosis, Candidate, Check, Component, ResidualAnalysis,
-    NARROW_BAND_MAX_HZ,
+    band_carries_defect, band_kurtosis, rhythm_dilution_db, Candidate, Check, Component,
+    ResidualAnalysis, NARROW_BAND_MAX_HZ,
 };
 use crate::twin::Effect;
 use crate::twin::EffectKind;
@@ -81,10 +81,7 @@ fn band_readings(
     // floor than the model's does. Generated noise bands dilute it by 8–15 dB,
     // generated modes by −6 to −1 (they strengthen it), the bands of the twelve
     // CWRU loops by 5.4 dB at most.
-    let dilution = rate.map(|r| {
-        band_carries_defect(ctx.sim, fs, l, h, r, ctx.cfg.env_n)
-            - band_carries_defect(ctx.x, fs, l, h, r, ctx.cfg.env_n)
-    });
+    let dilution = rate.map(|r| rhythm_dilution_db(ctx.sim, ctx.x, fs, (l, h), r, ctx.cfg.env_n));
     let diluted = dilution.is_some_and(|d| d >= BAND_DILUTION_DB);
     let resonance_like = b.width_hz < 0.3 * b.f_hz;
     let structural = match carried {
