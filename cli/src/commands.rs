@@ -787,6 +787,13 @@ pub struct TwinBenchArgs {
     /// (`pumptwin_twin::bench::measured`).
     #[arg(long, value_name = "DIR")]
     pub measured: Option<PathBuf>,
+    /// Run only these cases of the draw (comma-separated ids below `--cases`), to
+    /// look at a subset while developing; the report counts them alone.
+    #[arg(long, value_name = "IDS", value_delimiter = ',')]
+    pub only: Vec<usize>,
+    /// With `--only`: write each loop's whole report to DIR/case-ID.json too.
+    #[arg(long, requires = "only")]
+    pub reports: bool,
 }
 
 /// `pumptwin twin loop`.
@@ -860,7 +867,7 @@ pub fn run_twin(cmd: &TwinCmd) -> Result<()> {
 }
 
 fn run_twin_bench(args: &TwinBenchArgs) -> Result<()> {
-    use pumptwin_twin::bench::{run, score};
+    use pumptwin_twin::bench::{run, run_ids, score};
     ensure!(args.cases > 0, "--cases 0: nothing to run");
     if let (Some(id), None) = (args.write_case, &args.measured) {
         return write_bench_case(args, id);
@@ -873,13 +880,37 @@ fn run_twin_bench(args: &TwinBenchArgs) -> Result<()> {
     }
     let t0 = std::time::Instant::now();
     let cfg = pumptwin_twin::closed_loop::LoopConfig::default();
-    let outcomes = run(args.cases, args.seed, threads, &cfg, &|done| {
-        eprint!("\r{done}/{} cases", args.cases);
-    });
+    let progress = |done| eprint!("\r{done} cases");
+    let (outcomes, only) = if args.only.is_empty() {
+        (
+            run(args.cases, args.seed, threads, &cfg, &progress),
+            String::new(),
+        )
+    } else {
+        ensure!(
+            args.only.iter().all(|&id| id < args.cases),
+            "--only: every id must be below --cases {}",
+            args.cases
+        );
+        std::fs::create_dir_all(&args.out)
+            .with_context(|| format!("create {}", args.out.display()))?;
+        let ids: Vec<String> = args.only.iter().map(usize::to_string).collect();
+        (
+            run_ids(
+                &args.only,
+                args.seed,
+                threads,
+                &cfg,
+                args.reports.then_some(args.out.as_path()),
+                &progress,
+            ),
+            format!(" --only {}", ids.join(",")),
+        )
+    };
     eprintln!();
     let summary = score::summarize(&outcomes);
     let command = format!(
-        "pumptwin twin bench --cases {} --seed {}",
+        "pumptwin twin bench --cases {} --seed {}{only}",
         args.cases, args.seed
     );
     let mut md = score::markdown(&summary, &command);

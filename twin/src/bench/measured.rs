@@ -160,7 +160,7 @@ fn run_before(
             base: describe(b, &x),
             injected: Vec::new(),
         };
-        let o = score_signal(case, x, cfg, &[]);
+        let o = score_signal(case, x, cfg, &[], None);
         progress();
         Before {
             record: b.record.clone(),
@@ -276,7 +276,7 @@ pub fn run_measured(
     let outcomes = par_map(jobs, threads, &|k| {
         let (i, last, case, signal) = plan.job(bases, k, seed, cfg);
         let b = &bases[i];
-        let o = score_signal(case, signal, cfg, &before[i].kept);
+        let o = score_signal(case, signal, cfg, &before[i].kept, None);
         tick();
         MeasuredOutcome {
             record: b.record.clone(),

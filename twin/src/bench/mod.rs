@@ -24,6 +24,7 @@ pub mod synth;
 use crate::closed_loop::{note_clipping, run as run_loop, LoopConfig, LoopInput};
 use draw::{draw_case, Case};
 use score::Outcome;
+use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 
@@ -34,17 +35,19 @@ pub const RECORD_SECONDS: f64 = 6.0;
 /// case's outcome (counted in the report), not the benchmark's end.
 pub fn run_case(case: Case, cfg: &LoopConfig) -> Outcome {
     let x = synth::synthesize(&case, RECORD_SECONDS);
-    score_signal(case, x, cfg, &[])
+    score_signal(case, x, cfg, &[], None)
 }
 
 /// Run the loop with `cfg` on `x`, the record of `case` (its rate, speed and geometry
 /// from `case.base`), and score it against the case's injections and `before` (as in
 /// [`score::judge`]). A loop error or a panic is the outcome, not the benchmark's end.
+/// With `report_to`, the loop's whole report is written there as JSON too.
 pub(crate) fn score_signal(
     case: Case,
     x: Vec<f32>,
     cfg: &LoopConfig,
     before: &[score::Claim],
+    report_to: Option<&Path>,
 ) -> Outcome {
     let input = LoopInput {
         signal: x,
@@ -57,6 +60,18 @@ pub(crate) fn score_signal(
     match result {
         Ok(Ok((mut report, _))) => {
             note_clipping(&mut report, &input.signal);
+            if let Some(path) = report_to {
+                let written = serde_json::to_vec_pretty(&report)
+                    .map_err(|e| e.to_string())
+                    .and_then(|b| std::fs::write(path, b).map_err(|e| e.to_string()));
+                if let Err(e) = written {
+                    eprintln!(
+                        "case {}: report not written to {}: {e}",
+                        case.id,
+                        path.display()
+                    );
+                }
+            }
             score::score(case, &report, before)
         }
         Ok(Err(e)) => score::failed(case, e.to_string()),
@@ -84,6 +99,29 @@ pub fn run(
     let done = AtomicUsize::new(0);
     par_map(cases, threads, &|id| {
         let o = run_case(draw_case(id, seed, RECORD_SECONDS), cfg);
+        progress(done.fetch_add(1, Ordering::Relaxed) + 1);
+        o
+    })
+}
+
+/// Run the loop on the cases `ids` of the draw from `seed` only (a subset to look at
+/// while developing: a draw's case depends on its id and the seed alone); outcomes
+/// in the order of `ids`. With `reports`, each loop's whole report is written there as
+/// `case-ID.json`.
+pub fn run_ids(
+    ids: &[usize],
+    seed: u64,
+    threads: usize,
+    cfg: &LoopConfig,
+    reports: Option<&Path>,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Vec<Outcome> {
+    let done = AtomicUsize::new(0);
+    par_map(ids.len(), threads, &|i| {
+        let case = draw_case(ids[i], seed, RECORD_SECONDS);
+        let x = synth::synthesize(&case, RECORD_SECONDS);
+        let path = reports.map(|d| d.join(format!("case-{}.json", ids[i])));
+        let o = score_signal(case, x, cfg, &[], path.as_deref());
         progress(done.fetch_add(1, Ordering::Relaxed) + 1);
         o
     })

@@ -52,6 +52,7 @@ pub fn run(input: &LoopInput, cfg: &LoopConfig) -> Result<(LoopReport, LoopArtif
         },
         stop_reason: format!("reached the step limit ({})", cfg.max_steps),
         residual_noise_like: false,
+        null_draws: None,
     };
     // The halves the effects are judged on are the ones the scatter compares.
     let psd_scatter = s

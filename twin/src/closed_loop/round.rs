@@ -8,7 +8,7 @@ use super::types::{LoopError, LoopStep};
 use crate::fit::FitResult;
 use crate::residual::{analyse, Candidate, Check, Component, Domain, ResidualAnalysis};
 use crate::signature::{to_db, ErrorFigures, SignatureConfig};
-use crate::trace::{trace, TraceContext};
+use crate::trace::{trace, KeptDraws, NullDraws, TraceContext};
 use crate::twin::TwinModel;
 
 /// Most PSD misfit beyond the estimates' own scatter ([`psd_scatter_db`]), in quadrature,
@@ -58,6 +58,8 @@ pub(super) struct State {
     pub(super) stop_reason: String,
     /// The residual was called noise-like.
     pub(super) residual_noise_like: bool,
+    /// The null draws of the current model, if a round has made them.
+    pub(super) null_draws: KeptDraws,
 }
 
 /// Whether the loop goes on after a round.
@@ -82,6 +84,12 @@ pub(super) fn round(
         &s.sig_res,
         f64::from(s.op.freqs.shaft),
     );
+    let nulls = NullDraws::new(
+        &st.current.model,
+        y_sim.len(),
+        s.cfg.seed ^ 0x0B00_7577,
+        st.null_draws.take(),
+    );
     let ctx = TraceContext {
         x: &s.x,
         sim: &y_sim,
@@ -89,6 +97,7 @@ pub(super) fn round(
         cfg: &s.sig_res,
         meas_psd_db: s.target_res.psd_db.clone(),
         sim_psd_db: to_db(&sim_sig.psd, &s.target_res.meas.psd),
+        nulls: &nulls,
     };
     // A record with dropouts has the time statistics of its holes (a step into and
     // out of each, impulsive in any band): random impacts are not read off them.
@@ -97,6 +106,7 @@ pub(super) fn round(
         .filter(|c| !st.trials.tried.contains(&tried_key(&c.effect)))
         .filter(|c| s.dropouts == 0 || !matches!(c.check, Check::Kurtosis { .. }))
         .collect();
+    st.null_draws = nulls.keep();
     let significant = unexplained(&analysis, &st.current.model, &s.sig_res, s.span_s).len();
     // Random bursts are read only once nothing else is left (below): where they are
     // all that is, the residual is first asked whether it is noise-like.

@@ -1,6 +1,7 @@
 //! What every tracer reads: the measurement and the current twin, and the limits
 //! on how many effects of each kind the loop adds.
 
+use super::null::NullDraws;
 use crate::residual::{Component, Evidence};
 use crate::signature::SignatureConfig;
 use crate::twin::EffectKind;
@@ -21,6 +22,9 @@ pub struct TraceContext<'a> {
     pub meas_psd_db: Vec<f32>,
     /// Model PSD in dB (same reference) at residual resolution.
     pub sim_psd_db: Vec<f32>,
+    /// The current model simulated again with other seeds: the null a statistic's
+    /// threshold is read from ([`super::null`]).
+    pub nulls: &'a NullDraws<'a>,
 }
 
 /// Evidence with no extra figures.

@@ -20,11 +20,13 @@ pub mod context;
 pub mod impact_train;
 pub mod lines;
 pub mod modulation;
+pub mod null;
 pub mod stiffness;
 
 pub use context::TraceContext;
 pub use impact_train::{second_train, SecondTrain};
 pub use modulation::{measured_modulation, MeasuredModulation};
+pub use null::{KeptDraws, NullDraws, NullTest};
 
 use crate::residual::{Candidate, ResidualAnalysis};
 use crate::twin::EffectKind;
