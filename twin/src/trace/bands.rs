@@ -5,11 +5,11 @@ use super::context::{
     evidence, TraceContext, BAND_DILUTION_DB, BURST_DILUTION_DB, MAX_EXTRA_MODES,
     MAX_UNEXPLAINED_BANDS, MIN_LOG_KURTOSIS_EXCESS,
 };
-use crate::residual::Kind;
 use crate::residual::{
     band_carries_defect, band_kurtosis, event_rhythm, rhythm_dilution_db, Candidate, Check,
     Component, ResidualAnalysis, NARROW_BAND_MAX_HZ,
 };
+use crate::residual::{Evidence, Kind};
 use crate::twin::Effect;
 use crate::twin::EffectKind;
 
@@ -172,47 +172,68 @@ fn band_readings(
         });
     }
     // The third reading: bursts at random times, ringing a casing mode of their
-    // own. Offered, as a rival to the readings above, for a band whose envelope
-    // carries less of the defect's rhythm than the model's does in the same band —
-    // power from a source that keeps no rhythm of the machine — and wide enough for
-    // its envelope to say so; the refit decides between smooth noise and bursts.
-    // And the band must be at least as impulsive as Gaussian noise: shot noise
-    // reads above 3 whatever its rate, so a band below it (a steady oscillation,
-    // tones, carry it) is not carried by bursts.
-    // And the dilution must stand out of the dilutions the model's own realizations
-    // show against it (its null, `super::null`): impacts of widely spread strength
-    // move the envelope's line by a few dB from one stretch to the next.
+    // own, for a band wide enough for its envelope to say so and at least as
+    // impulsive as Gaussian noise: shot noise reads above 3 whatever its rate, so
+    // a band below it (a steady oscillation, tones, carry it) is not carried by
+    // bursts.
     let impulsive = kurt.is_some_and(|(km, _)| km > 3.0);
     let no_bursts_yet = model.effects_of(EffectKind::RandomBursts).is_empty();
-    let beyond_null = |d: f32| {
-        let r = rate?;
-        let t = ctx.nulls.test(d, |y| {
-            Some(rhythm_dilution_db(ctx.sim, y, fs, (l, h), r, ctx.cfg.env_n))
-        });
-        t.significant().then_some(t)
-    };
-    let bursts = dilution
-        .filter(|&d| no_bursts_yet && !narrow && impulsive && d >= BURST_DILUTION_DB)
-        .and_then(|d| beyond_null(d).map(|t| (d, t)));
-    if let Some((d, null)) = bursts {
-        let mut ev = with(&format!(
-            "; it dilutes the defect rate in the band's envelope by {d:.1} dB against the model's ({:.1} standard deviations beyond the model's own realizations): power from a source with no rhythm of the machine, which bursts at random times (cavitation, debris, a part struck at random) would give",
-            null.z()
-        ));
-        ev.figures.insert(
-            "null_test".into(),
-            null.figures("defect_rate_dilution_in_band_db"),
-        );
-        out.push(Candidate {
-            effect: Effect::RandomBursts {
-                f_hz: b.centre_hz.unwrap_or(b.f_hz),
-                bandwidth_hz: b.width_hz.max(2.0 * df),
-            },
-            evidence: ev,
-            strength: strength - 2.5,
-            check: Check::Lines,
-        });
+    let eligible = dilution.filter(|_| no_bursts_yet && !narrow && impulsive);
+    out.extend(burst_reading(
+        b,
+        (l, h),
+        rate,
+        eligible,
+        with(""),
+        strength,
+        ctx,
+    ));
+}
+
+/// Random bursts as the reading of band `b` (its run `[l, h]` Hz), offered as a
+/// rival to a mode and a band at the sensor where the band's envelope carries less
+/// of the defect's rhythm (`rate`) than the model's does in the same band — power
+/// from a source that keeps no rhythm of the machine: `dilution` dB, at least
+/// [`BURST_DILUTION_DB`] — and that dilution stands out of the dilutions the model's
+/// own realizations show against it (its null, `super::null`: impacts of widely
+/// spread strength move the envelope's line by a few dB from one stretch to the
+/// next). The refit decides between smooth noise and bursts.
+fn burst_reading(
+    b: &Component,
+    (l, h): (f32, f32),
+    rate: Option<f32>,
+    dilution: Option<f32>,
+    mut ev: Evidence,
+    strength: f32,
+    ctx: &TraceContext<'_>,
+) -> Option<Candidate> {
+    let d = dilution.filter(|&d| d >= BURST_DILUTION_DB)?;
+    let r = rate?;
+    let fs = ctx.cfg.fs_hz;
+    let null = ctx.nulls.test(d, |y| {
+        Some(rhythm_dilution_db(ctx.sim, y, fs, (l, h), r, ctx.cfg.env_n))
+    });
+    if !null.significant() {
+        return None;
     }
+    ev.summary.push_str(&format!(
+        "; it dilutes the defect rate in the band's envelope by {d:.1} dB against the model's ({:.1} standard deviations beyond the model's own realizations): power from a source with no rhythm of the machine, which bursts at random times (cavitation, debris, a part struck at random) would give",
+        null.z()
+    ));
+    ev.figures.insert(
+        "null_test".into(),
+        null.figures("defect_rate_dilution_in_band_db"),
+    );
+    let df = f64::from(fs) / ctx.cfg.psd_n as f64;
+    Some(Candidate {
+        effect: Effect::RandomBursts {
+            f_hz: b.centre_hz.unwrap_or(b.f_hz),
+            bandwidth_hz: b.width_hz.max(2.0 * df),
+        },
+        evidence: ev,
+        strength: strength - 2.5,
+        check: Check::Lines,
+    })
 }
 
 /// Offer random impacts on the structure where the record is more impulsive than
