@@ -782,10 +782,8 @@ pub fn rhythm_dilution_db(
         - band_carries_defect(x, fs, lo, hi, rate_hz, n)
 }
 
-/// Kurtosis of `x` band-passed to `[lo, hi]` Hz (FFT-domain, over the whole record
-/// zero-padded to a power of two), or `None` for an empty band. A Gaussian band reads
-/// 3; a band carried by isolated bursts reads far more.
-pub fn band_kurtosis(x: &[f32], fs: f32, lo: f32, hi: f32) -> Option<f32> {
+/// The spectrum of `x` zero-padded to a power of two, and its bin width at `fs` Hz.
+fn padded_spectrum(x: &[f32], fs: f32) -> Option<(Vec<Complex32>, f32)> {
     let n = x.len().next_power_of_two();
     let mut z: Vec<Complex32> = x
         .iter()
@@ -794,7 +792,15 @@ pub fn band_kurtosis(x: &[f32], fs: f32, lo: f32, hi: f32) -> Option<f32> {
         .take(n)
         .collect();
     fft_in_place(&mut z, Direction::Forward).ok()?;
-    let df = fs / n as f32;
+    Some((z, fs / n as f32))
+}
+
+/// Kurtosis of `x` band-passed to `[lo, hi]` Hz (FFT-domain, over the whole record
+/// zero-padded to a power of two), or `None` for an empty band. A Gaussian band reads
+/// 3; a band carried by isolated bursts reads far more.
+pub fn band_kurtosis(x: &[f32], fs: f32, lo: f32, hi: f32) -> Option<f32> {
+    let (mut z, df) = padded_spectrum(x, fs)?;
+    let n = z.len();
     for (k, v) in z.iter_mut().enumerate() {
         let f = k.min(n - k) as f32 * df;
         if f < lo || f > hi {
@@ -811,15 +817,8 @@ pub fn band_kurtosis(x: &[f32], fs: f32, lo: f32, hi: f32) -> Option<f32> {
 /// The envelope of `x` band-passed to `[lo, hi]` Hz (FFT-domain analytic signal over
 /// the whole record zero-padded to a power of two), or `None` for an empty band.
 fn band_envelope(x: &[f32], fs: f32, lo: f32, hi: f32) -> Option<Vec<f32>> {
-    let n = x.len().next_power_of_two();
-    let mut z: Vec<Complex32> = x
-        .iter()
-        .map(|&v| Complex32::new(v, 0.0))
-        .chain(std::iter::repeat(Complex32::ZERO))
-        .take(n)
-        .collect();
-    fft_in_place(&mut z, Direction::Forward).ok()?;
-    let df = fs / n as f32;
+    let (mut z, df) = padded_spectrum(x, fs)?;
+    let n = z.len();
     let mut any = false;
     for (k, v) in z.iter_mut().enumerate() {
         let f = k as f32 * df;
