@@ -782,8 +782,10 @@ pub fn rhythm_dilution_db(
         - band_carries_defect(x, fs, lo, hi, rate_hz, n)
 }
 
-/// The spectrum of `x` zero-padded to a power of two, and its bin width at `fs` Hz.
-fn padded_spectrum(x: &[f32], fs: f32) -> Option<(Vec<Complex32>, f32)> {
+/// Kurtosis of `x` band-passed to `[lo, hi]` Hz (FFT-domain, over the whole record
+/// zero-padded to a power of two), or `None` for an empty band. A Gaussian band reads
+/// 3; a band carried by isolated bursts reads far more.
+pub fn band_kurtosis(x: &[f32], fs: f32, lo: f32, hi: f32) -> Option<f32> {
     let n = x.len().next_power_of_two();
     let mut z: Vec<Complex32> = x
         .iter()
@@ -792,15 +794,7 @@ fn padded_spectrum(x: &[f32], fs: f32) -> Option<(Vec<Complex32>, f32)> {
         .take(n)
         .collect();
     fft_in_place(&mut z, Direction::Forward).ok()?;
-    Some((z, fs / n as f32))
-}
-
-/// Kurtosis of `x` band-passed to `[lo, hi]` Hz (FFT-domain, over the whole record
-/// zero-padded to a power of two), or `None` for an empty band. A Gaussian band reads
-/// 3; a band carried by isolated bursts reads far more.
-pub fn band_kurtosis(x: &[f32], fs: f32, lo: f32, hi: f32) -> Option<f32> {
-    let (mut z, df) = padded_spectrum(x, fs)?;
-    let n = z.len();
+    let df = fs / n as f32;
     for (k, v) in z.iter_mut().enumerate() {
         let f = k.min(n - k) as f32 * df;
         if f < lo || f > hi {
@@ -814,26 +808,22 @@ pub fn band_kurtosis(x: &[f32], fs: f32, lo: f32, hi: f32) -> Option<f32> {
     (m2 > 0.0).then(|| (m4 / (m2 * m2)) as f32)
 }
 
-/// The envelope of `x` band-passed to `[lo, hi]` Hz (FFT-domain analytic signal over
-/// the whole record zero-padded to a power of two), or `None` for an empty band.
+/// The envelope of `x` band-passed to `[lo, hi]` Hz (the core's analytic-signal
+/// [`envelope`] over the whole record zero-padded to a power of two), or `None` for
+/// an empty band or a non-finite sample.
 fn band_envelope(x: &[f32], fs: f32, lo: f32, hi: f32) -> Option<Vec<f32>> {
-    let (mut z, df) = padded_spectrum(x, fs)?;
-    let n = z.len();
-    let mut any = false;
-    for (k, v) in z.iter_mut().enumerate() {
-        let f = k as f32 * df;
-        if k > 0 && k < n / 2 && f >= lo && f <= hi {
-            *v = Complex32::new(2.0 * v.re, 2.0 * v.im);
-            any = true;
-        } else {
-            *v = Complex32::ZERO;
-        }
-    }
-    if !any {
-        return None;
-    }
-    fft_in_place(&mut z, Direction::Inverse).ok()?;
-    Some(z[..x.len()].iter().map(|v| v.norm()).collect())
+    let n = x.len().next_power_of_two();
+    let mut padded = x.to_vec();
+    padded.resize(n, 0.0);
+    let mut scratch = vec![Complex32::ZERO; n];
+    let mut env = vec![0.0f32; n];
+    let band = EnvelopeBand {
+        lo_hz: lo,
+        hi_hz: hi,
+    };
+    envelope(&padded, fs, band, &mut scratch, &mut env).ok()?;
+    env.truncate(x.len());
+    env.iter().any(|&v| v > 0.0).then_some(env)
 }
 
 /// How well the strongest events of `x` in `[lo, hi]` Hz keep the rhythm of impacts at

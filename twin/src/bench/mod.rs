@@ -31,11 +31,12 @@ use std::sync::Mutex;
 /// Seconds per record: the loop's default span (6 s) is all it reads.
 pub const RECORD_SECONDS: f64 = 6.0;
 
-/// Run the loop with `cfg` on one case and score it. A loop error or a panic is the
-/// case's outcome (counted in the report), not the benchmark's end.
-pub fn run_case(case: Case, cfg: &LoopConfig) -> Outcome {
+/// Run the loop with `cfg` on one case and score it (the loop's whole report written
+/// to `report_to` too, if given). A loop error or a panic is the case's outcome
+/// (counted in the report), not the benchmark's end.
+pub fn run_case(case: Case, cfg: &LoopConfig, report_to: Option<&Path>) -> Outcome {
     let x = synth::synthesize(&case, RECORD_SECONDS);
-    score_signal(case, x, cfg, &[], None)
+    score_signal(case, x, cfg, &[], report_to)
 }
 
 /// Run the loop with `cfg` on `x`, the record of `case` (its rate, speed and geometry
@@ -96,12 +97,8 @@ pub fn run(
     cfg: &LoopConfig,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Vec<Outcome> {
-    let done = AtomicUsize::new(0);
-    par_map(cases, threads, &|id| {
-        let o = run_case(draw_case(id, seed, RECORD_SECONDS), cfg);
-        progress(done.fetch_add(1, Ordering::Relaxed) + 1);
-        o
-    })
+    let ids: Vec<usize> = (0..cases).collect();
+    run_ids(&ids, seed, threads, cfg, None, progress)
 }
 
 /// Run the loop on the cases `ids` of the draw from `seed` only (a subset to look at
@@ -118,10 +115,12 @@ pub fn run_ids(
 ) -> Vec<Outcome> {
     let done = AtomicUsize::new(0);
     par_map(ids.len(), threads, &|i| {
-        let case = draw_case(ids[i], seed, RECORD_SECONDS);
-        let x = synth::synthesize(&case, RECORD_SECONDS);
         let path = reports.map(|d| d.join(format!("case-{}.json", ids[i])));
-        let o = score_signal(case, x, cfg, &[], path.as_deref());
+        let o = run_case(
+            draw_case(ids[i], seed, RECORD_SECONDS),
+            cfg,
+            path.as_deref(),
+        );
         progress(done.fetch_add(1, Ordering::Relaxed) + 1);
         o
     })
