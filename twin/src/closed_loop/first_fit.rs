@@ -456,49 +456,119 @@ fn shortfall_peaks(target: &Target, sig: &Signature) -> Vec<(f64, f32)> {
 
 /// Level, dB over `floor`, of the family of fundamental `f0_hz` in the envelope
 /// spectrum `env` (bin width `df`): the mean over its first two harmonics of the
-/// highest **peak** (a bin at least as high as both neighbours, its frequency
-/// interpolated) within ±2 % (slip),
-/// the floor where the window holds none. Not the highest bin: a strong line just
-/// outside the window (an inner race's shaft-rate lines and sidebands, 20–40 dB over
-/// the floor) leaks into it along its main lobe, and its flank was read as the
-/// family's line — on the randomized benchmark's dev controls (`--seed 1`), 2·shaft
-/// 2.4 % from BSF and BPFI − shaft 2.4 % from 2·BSF named three inner-race records a
-/// ball fault, whose own comb the loop then called a second defect.
-fn family_peaks_db(env: &[f32], df: f32, f0_hz: f32, floor: f32) -> f32 {
+/// highest **peak** (a local maximum, its frequency interpolated) within the slip's
+/// [`SLIP`] of the harmonic. Where the window holds no peak at all, the family's line
+/// has been displaced (a drifting speed: 1 %/s moves BPFO's line 3 % over six
+/// seconds) and the window holds its flank: then the highest bin counts, unless it is
+/// on the main lobe of one of `others` (within a bin: the shaft's orders, the other
+/// families' lines with their shaft-rate sidebands).
+///
+/// Why peaks and not the highest bin: a strong line just outside the window leaks
+/// into it along its main lobe, and so does the envelope's rise towards 0 Hz; their
+/// flanks were read as the family's line — on the randomized benchmark's dev side
+/// (`--seed 1`), 2·shaft 2.4 % from BSF and BPFI − shaft 2.4 % from 2·BSF named
+/// inner-race records a ball fault (three controls, whose own comb the loop then
+/// called a second defect), and the low-frequency rise named healthy records ball
+/// faults.
+fn family_level_db(env: &[f32], df: f32, f0_hz: f32, others: &[f32], floor: f32) -> f32 {
     const HARMONICS: usize = 2;
-    const SLIP: f32 = 0.02;
     if !(floor > 0.0 && df > 0.0 && f0_hz > 0.0) {
         return 0.0;
     }
-    // A peak's level and frequency (parabolic through the log levels of the bin and
-    // its neighbours: a Hann line's centre to a tenth of a bin).
-    let peak = |j: usize| {
-        let (a, b, c) = (*env.get(j.checked_sub(1)?)?, env[j], *env.get(j + 1)?);
-        if !(b >= a && b >= c && a > 0.0 && c > 0.0) {
-            return None;
-        }
-        let (la, lb, lc) = (a.ln(), b.ln(), c.ln());
-        let curve = la - 2.0 * lb + lc;
-        let shift = if curve < 0.0 {
-            (0.5 * (la - lc) / curve).clamp(-0.5, 0.5)
-        } else {
-            0.0
-        };
-        Some(((j as f32 + shift) * df, b))
-    };
     let mut sum = 0.0f32;
     for h in 1..=HARMONICS {
         let f = h as f32 * f0_hz;
         let tol = df.max(SLIP * f);
         let lo = ((f - tol) / df).max(1.0) as usize;
         let hi = (((f + tol) / df) as usize + 1).min(env.len().saturating_sub(1));
-        let best = (lo..=hi)
-            .filter_map(peak)
-            .filter(|&(at, _)| (at - f).abs() <= tol)
-            .fold(floor, |m, (_, v)| m.max(v));
+        let within = |j: usize| (peak_of(env, j) * df - f).abs() <= tol;
+        let peaks: Vec<usize> = (lo..=hi)
+            .filter(|&j| is_peak(env, j) && within(j))
+            .collect();
+        let best = if peaks.is_empty() {
+            let anothers = |j: usize| {
+                let at = peak_of(env, j) * df;
+                others.iter().any(|&g| (at - g).abs() <= df)
+            };
+            (lo..=hi)
+                .filter(|&j| !anothers(j))
+                .map(|j| env[j])
+                .fold(floor, f32::max)
+        } else {
+            peaks.iter().map(|&j| env[j]).fold(floor, f32::max)
+        };
         sum += best;
     }
     10.0 * (sum / (HARMONICS as f32 * floor)).log10()
+}
+
+/// A family's line within this share of its frequency is its own (the rolling
+/// elements' slip, 1–2 %).
+const SLIP: f32 = 0.02;
+
+/// Whether bin `j` of `env` is a local maximum (above the bin below it, at least as
+/// high as the one above: a flat run is no peak).
+fn is_peak(env: &[f32], j: usize) -> bool {
+    match (
+        j.checked_sub(1).and_then(|k| env.get(k)),
+        env.get(j),
+        env.get(j + 1),
+    ) {
+        (Some(a), Some(b), Some(c)) => b > a && b >= c,
+        _ => false,
+    }
+}
+
+/// The peak of `env` whose main lobe bin `j` is on (climbing from `j`), as a
+/// fractional bin: parabolic through the log levels of its bin and the neighbours (a
+/// Hann line's centre to a tenth of a bin).
+fn peak_of(env: &[f32], j: usize) -> f32 {
+    let at = |k: usize| env.get(k).copied();
+    let up = at(j + 1).zip(at(j)).is_some_and(|(a, v)| a > v);
+    let mut p = j;
+    loop {
+        let next = if up {
+            p.checked_add(1)
+        } else {
+            p.checked_sub(1)
+        };
+        match next.and_then(|n| at(n).zip(at(p)).map(|l| (n, l))) {
+            Some((n, (a, v))) if a > v => p = n,
+            _ => break,
+        }
+    }
+    let (Some(a), Some(b), Some(c)) = (p.checked_sub(1).and_then(at), at(p), at(p + 1)) else {
+        return p as f32;
+    };
+    if !(a > 0.0 && b > 0.0 && c > 0.0) {
+        return p as f32;
+    }
+    let (la, lb, lc) = (a.ln(), b.ln(), c.ln());
+    let curve = la - 2.0 * lb + lc;
+    let shift = if curve < 0.0 {
+        (0.5 * (la - lc) / curve).clamp(-0.5, 0.5)
+    } else {
+        0.0
+    };
+    p as f32 + shift
+}
+
+/// The envelope lines other than family `d`'s (fundamental `f_d`) up to `top_hz`:
+/// the shaft's orders, and the other families' first two harmonics with their first
+/// two shaft-rate sidebands (a rotating race's or element's load zone).
+fn other_lines(families: &[f32; 3], d: usize, shaft: f32, top_hz: f32) -> Vec<f32> {
+    let mut out: Vec<f32> = (1..)
+        .map(|k| k as f32 * shaft)
+        .take_while(|&g| g <= top_hz && shaft > 0.0)
+        .collect();
+    for (_, &g) in families.iter().enumerate().filter(|&(i, _)| i != d) {
+        for h in 1..=2 {
+            for m in -2i32..=2 {
+                out.push(h as f32 * g + m as f32 * shaft);
+            }
+        }
+    }
+    out
 }
 
 /// Step 1a: which defect, from the measured envelope spectrum.
@@ -518,20 +588,28 @@ fn identify_fault(
     let floor = *v.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1;
     let f = &op.freqs;
     let df = cfg.fs_hz / cfg.env_n as f32;
-    let level = |hz: f32| family_peaks_db(env, df, hz, floor);
+    let families = [f.bpfo, f.bpfi, 2.0 * f.bsf];
+    let top = 3.0 * families.iter().fold(f.bsf, |m, &g| m.max(g));
+    let level = |hz: f32, d: usize| {
+        let others = other_lines(&families, d, f.shaft, top);
+        family_level_db(env, df, hz, &others, floor)
+    };
     let candidates = [
-        (Some(DefectLocation::OuterRace), level(f.bpfo)),
-        (Some(DefectLocation::InnerRace), level(f.bpfi)),
+        (Some(DefectLocation::OuterRace), level(f.bpfo, 0)),
+        (Some(DefectLocation::InnerRace), level(f.bpfi, 1)),
         (
             Some(DefectLocation::Ball),
-            level(2.0 * f.bsf).max(level(f.bsf)),
+            level(2.0 * f.bsf, 2).max(level(f.bsf, 2)),
         ),
     ];
     let mut ev = serde_json::Map::new();
     ev.insert("bpfo_db".into(), serde_json::json!(candidates[0].1));
     ev.insert("bpfi_db".into(), serde_json::json!(candidates[1].1));
     ev.insert("bsf_db".into(), serde_json::json!(candidates[2].1));
-    ev.insert("shaft_db".into(), serde_json::json!(level(f.shaft)));
+    ev.insert(
+        "shaft_db".into(),
+        serde_json::json!(family_level_db(env, df, f.shaft, &[], floor)),
+    );
     ev.insert("threshold_db".into(), serde_json::json!(threshold));
     let best = candidates
         .iter()
@@ -670,7 +748,7 @@ fn refine_rate(target_res: &Target, kinematic_hz: f32) -> f64 {
 
 #[cfg(test)]
 mod tests {
-    use super::family_peaks_db;
+    use super::{family_level_db, other_lines};
 
     /// A line's Hann main lobe (peak at `f`, bins of 1 Hz) over a floor of 1.
     fn with_line(env: &mut [f32], f: f32, level: f32) {
@@ -682,22 +760,35 @@ mod tests {
         }
     }
 
-    /// A strong line just outside a family's ±2 % window leaks into it along its main
-    /// lobe; its flank is not the family's line. The family's own line, a peak, is.
+    /// A strong line at another known frequency 2.4 % from a family's leaks into its
+    /// window along its main lobe; neither it nor its flank is the family's line. The
+    /// family's own line is, and so is its own line displaced 3 % (a drifting speed),
+    /// which peaks at no other line.
     #[test]
     fn a_neighbours_flank_is_not_a_familys_line() {
         let mut env = vec![1.0f32; 600];
-        // Shaft harmonics 2.4 % below BSF (116 Hz) and 2·BSF.
+        // Shaft harmonics (56.6 Hz) 2.4 % below BSF (116 Hz) and 2·BSF.
         with_line(&mut env, 113.2, 1e4);
         with_line(&mut env, 226.4, 1e4);
-        let flank = family_peaks_db(&env, 1.0, 116.0, 1.0);
+        let shaft = [56.6f32, 113.2, 169.8, 226.4, 283.0];
+        let flank = family_level_db(&env, 1.0, 116.0, &shaft, 1.0);
         assert!(flank < 1.0, "{flank} dB from a neighbour's flank");
+        // Without the shaft's orders to say whose the line is, the window holds no
+        // peak and its flank counts.
+        assert!(family_level_db(&env, 1.0, 116.0, &[], 1.0) > 20.0);
+        // Its own line displaced 3 % by a drifting speed, at no other line, counts.
+        let mut drifted = env.clone();
+        with_line(&mut drifted, 119.5, 100.0);
+        with_line(&mut drifted, 239.0, 100.0);
+        let displaced = family_level_db(&drifted, 1.0, 116.0, &shaft, 1.0);
+        assert!(displaced > 12.0, "{displaced} dB");
         with_line(&mut env, 116.0, 100.0);
         with_line(&mut env, 232.0, 100.0);
-        let own = family_peaks_db(&env, 1.0, 116.0, 1.0);
+        let own = family_level_db(&env, 1.0, 116.0, &shaft, 1.0);
         assert!((own - 20.0).abs() < 0.5, "{own} dB");
         // No floor, no frequency: no level, never a panic.
-        assert_eq!(family_peaks_db(&env, 1.0, 116.0, 0.0), 0.0);
-        assert_eq!(family_peaks_db(&env, 1.0, 1e9, 1.0), 0.0);
+        assert_eq!(family_level_db(&env, 1.0, 116.0, &shaft, 0.0), 0.0);
+        assert_eq!(family_level_db(&env, 1.0, 1e9, &shaft, 1.0), 0.0);
+        assert!(other_lines(&[100.0, 150.0, 60.0], 0, 25.0, 200.0).contains(&125.0));
     }
 }
