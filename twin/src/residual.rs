@@ -658,7 +658,7 @@ fn peak_centre(db: &[f32], k: usize) -> Option<f64> {
 
 /// `db` at fractional bin `x`, linear between bins; `None` outside.
 fn interpolate(db: &[f32], x: f64) -> Option<f32> {
-    if !(x >= 0.0) {
+    if x.is_nan() || x < 0.0 {
         return None;
     }
     let i = x.floor() as usize;
