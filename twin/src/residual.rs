@@ -621,20 +621,7 @@ const HUMP_EDGE_DB: f32 = 6.0;
 /// each side (linearly interpolated between bins; the spectrum's ends where it does
 /// not fall that far).
 fn peak_centre(db: &[f32], k: usize) -> Option<f64> {
-    let at = |j: usize| db.get(j).copied();
-    let level = at(k)?;
-    let up = at(k + 1).is_some_and(|a| a > level);
-    let mut p = k;
-    while let Some(next) = if up {
-        p.checked_add(1)
-    } else {
-        p.checked_sub(1)
-    } {
-        match (at(next), at(p)) {
-            (Some(n), Some(v)) if n > v => p = next,
-            _ => break,
-        }
-    }
+    let p = climb_to_peak(db, k)?;
     let edge = db[p] - HUMP_EDGE_DB;
     // Where the fall crosses `edge` between bin `inner` (above) and `outer`.
     let crossing = |inner: usize, outer: usize| {
@@ -654,6 +641,27 @@ fn peak_centre(db: &[f32], k: usize) -> Option<f64> {
         .find(|&j| db[j] <= edge)
         .map_or((db.len() - 1) as f64, |j| crossing(j - 1, j));
     Some(0.5 * (left + right))
+}
+
+/// The top of the peak of `v` whose flank bin `k` is on: from `k`, uphill bin by bin
+/// (towards the higher neighbour above, else downwards) while the next bin is higher;
+/// `None` where `k` is outside `v`. Reads dB or power alike (only the order counts).
+pub(crate) fn climb_to_peak(v: &[f32], k: usize) -> Option<usize> {
+    let at = |j: usize| v.get(j).copied();
+    let level = at(k)?;
+    let up = at(k + 1).is_some_and(|a| a > level);
+    let mut p = k;
+    while let Some(next) = if up {
+        p.checked_add(1)
+    } else {
+        p.checked_sub(1)
+    } {
+        match (at(next), at(p)) {
+            (Some(n), Some(c)) if n > c => p = next,
+            _ => break,
+        }
+    }
+    Some(p)
 }
 
 /// `db` at fractional bin `x`, linear between bins; `None` outside.

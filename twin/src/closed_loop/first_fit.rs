@@ -28,7 +28,7 @@ use super::modal::{self, mode_search_bins, psd_peaks, MIN_BASE_MODE_ZETA, MODE_S
 use super::setup::Setup;
 use super::types::LoopError;
 use crate::fit::{evaluate, fit, FitConfig, FitError, FitResult, Target};
-use crate::residual::{refine_comb_rate, rhythm_dilution_db};
+use crate::residual::{climb_to_peak, refine_comb_rate, rhythm_dilution_db};
 use crate::signature::{to_db, Signature};
 use crate::trace::context::BAND_DILUTION_DB;
 use crate::twin::{Effect, EffectKind, OperatingPoint, TwinModel};
@@ -524,19 +524,7 @@ fn is_peak(env: &[f32], j: usize) -> bool {
 /// Hann line's centre to a tenth of a bin).
 fn peak_of(env: &[f32], j: usize) -> f32 {
     let at = |k: usize| env.get(k).copied();
-    let up = at(j + 1).zip(at(j)).is_some_and(|(a, v)| a > v);
-    let mut p = j;
-    loop {
-        let next = if up {
-            p.checked_add(1)
-        } else {
-            p.checked_sub(1)
-        };
-        match next.and_then(|n| at(n).zip(at(p)).map(|l| (n, l))) {
-            Some((n, (a, v))) if a > v => p = n,
-            _ => break,
-        }
-    }
+    let p = climb_to_peak(env, j).unwrap_or(j);
     let (Some(a), Some(b), Some(c)) = (p.checked_sub(1).and_then(at), at(p), at(p + 1)) else {
         return p as f32;
     };
