@@ -224,60 +224,83 @@ impl<'d> Gateway<'d> {
             };
             self.pacer.wait_for(frame.ts_us);
             let t_frame = std::time::Instant::now();
-            for mut window in self.pipeline.push(&frame).windows {
-                let diagnosis = match self.diagnoser.as_mut() {
-                    Some(d) => Some(d.diagnose(&window)?),
-                    None => None,
-                };
-                if let (Some(n), Some(p), Some((m, class))) =
-                    (window.physics.0, &window.physics.1, &self.last_class)
-                {
-                    if n == *m {
-                        window.warnings = crate::report::physics_warnings(n, class, p);
-                    }
-                }
-                self.last_class = diagnosis
-                    .as_ref()
-                    .and_then(|d| d.get("class")?.as_str())
-                    .map(|c| (window.index, c.to_string()));
-                self.tally.add(&window, diagnosis.as_ref());
-                let line = if self.human {
-                    crate::report::window_text(&window, diagnosis.as_ref())
-                } else {
-                    window_json(&window, diagnosis.as_ref())?
-                };
-                out.write_all(line.as_bytes())?;
-                out.write_all(b"\n")?;
-                out.flush()?;
-                self.latency.record(t_frame.elapsed());
-                // Θ tracking and the physics run after the line is out: they never
-                // delay a diagnosis.
-                self.pipeline.track_pending();
-                self.pipeline.diagnose_pending();
-                if let Some(m) = &self.metrics {
-                    if let Ok(mut m) = m.lock() {
-                        m.health = window.health;
-                        m.publish_failures = self.publish_failures;
-                        m.latency_us = (
-                            self.latency.quantile_us(0.5).unwrap_or(0),
-                            self.latency.quantile_us(0.99).unwrap_or(0),
-                        );
-                    }
-                }
-                if let Some(p) = self.publisher.as_mut() {
-                    if let Err(e) = p(&window, diagnosis.as_ref()) {
-                        self.publish_failures += 1;
-                        if self.publish_failures <= BAD_LINES_SHOWN {
-                            writeln!(
-                                log,
-                                "pumptwin-edge: publishing window {}: {e}",
-                                window.index
-                            )?;
-                        }
-                    }
+            for window in self.pipeline.push(&frame).windows {
+                self.emit(window, t_frame, out, log)?;
+            }
+        }
+        // A frame held after a silence (pipeline docs) is decided and its windows
+        // reported: nothing is left behind at the end of the input.
+        let t_end = std::time::Instant::now();
+        for window in self.pipeline.finish() {
+            self.emit(window, t_end, out, log)?;
+        }
+        Ok(self.pipeline.health())
+    }
+
+    /// Diagnose, write and publish one window; `t_frame` is when the frame that
+    /// completed it arrived (for the latency figures).
+    fn emit<W, L>(
+        &mut self,
+        mut window: Window,
+        t_frame: std::time::Instant,
+        out: &mut W,
+        log: &mut L,
+    ) -> Result<(), GatewayError>
+    where
+        W: Write + ?Sized,
+        L: Write + ?Sized,
+    {
+        let diagnosis = match self.diagnoser.as_mut() {
+            Some(d) => Some(d.diagnose(&window)?),
+            None => None,
+        };
+        if let (Some(n), Some(p), Some((m, class))) =
+            (window.physics.0, &window.physics.1, &self.last_class)
+        {
+            if n == *m {
+                window.warnings = crate::report::physics_warnings(n, class, p);
+            }
+        }
+        self.last_class = diagnosis
+            .as_ref()
+            .and_then(|d| d.get("class")?.as_str())
+            .map(|c| (window.index, c.to_string()));
+        self.tally.add(&window, diagnosis.as_ref());
+        let line = if self.human {
+            crate::report::window_text(&window, diagnosis.as_ref())
+        } else {
+            window_json(&window, diagnosis.as_ref())?
+        };
+        out.write_all(line.as_bytes())?;
+        out.write_all(b"\n")?;
+        out.flush()?;
+        self.latency.record(t_frame.elapsed());
+        // Θ tracking and the physics run after the line is out: they never
+        // delay a diagnosis.
+        self.pipeline.track_pending();
+        self.pipeline.diagnose_pending();
+        if let Some(m) = &self.metrics {
+            if let Ok(mut m) = m.lock() {
+                m.health = window.health;
+                m.publish_failures = self.publish_failures;
+                m.latency_us = (
+                    self.latency.quantile_us(0.5).unwrap_or(0),
+                    self.latency.quantile_us(0.99).unwrap_or(0),
+                );
+            }
+        }
+        if let Some(p) = self.publisher.as_mut() {
+            if let Err(e) = p(&window, diagnosis.as_ref()) {
+                self.publish_failures += 1;
+                if self.publish_failures <= BAD_LINES_SHOWN {
+                    writeln!(
+                        log,
+                        "pumptwin-edge: publishing window {}: {e}",
+                        window.index
+                    )?;
                 }
             }
         }
-        Ok(self.pipeline.health())
+        Ok(())
     }
 }

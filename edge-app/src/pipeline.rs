@@ -43,6 +43,21 @@
 //! only the counter's jump is counted), and the window holding the junction is
 //! `discontinuous`. Shorter silences are reception jitter, not gaps.
 //!
+//! A silence is not always a loss: a sender, bridge or host that stalls and then sends
+//! its backlog leaves the same silence, with every frame delivered. What follows tells
+//! them apart: lost frames leave the sender's pace unchanged, so the next frame comes
+//! a period later; held-up frames come as a backlog, faster than the sender's pace.
+//! So the first frame after a silence by the clock that the counter does not see (no
+//! counter, or a counter that runs on) is **held**, its samples not yet stored and the
+//! frame not yet counted, until its channel's next frame that is neither a duplicate
+//! nor malformed nor from another interface: if that one comes within half a frame
+//! period ([`BACKLOG_FRACTION`]) and is not late, the silence was a hold-up, and the
+//! held frame is `used`, its samples joined without a junction; otherwise it is
+//! `out_of_sequence` with the clock's count of lost frames, as above. At the end of
+//! the input, [`Pipeline::finish`] decides a frame still held by the clock alone. A
+//! jump of the counter is a junction whatever the clock says, and a silence beyond
+//! [`CLOCK_COUNT_FRAMES`] is one however it ends: neither waits.
+//!
 //! Why out-of-sequence frames are used: their payload is intact and current; what is
 //! wrong is what came before them. The counter re-synchronizes to the frame; a forward
 //! jump of 1–127 adds the jump to `lost_frames`; a larger jump reads as a backward step
@@ -137,10 +152,17 @@ pub const TIME_GAP_FRAMES: f64 = 128.0;
 /// frames from a sensor that paused and resumed, so only the counter's jump is counted.
 pub const CLOCK_COUNT_FRAMES: u64 = 4096;
 
+/// A frame that follows a held frame (module docs) within this fraction of a frame
+/// period shows a backlog being delivered: the silence before the held frame was a
+/// hold-up, not a loss. Half a period is the midpoint between a sender's pace (one
+/// period, give or take reception jitter) and a backlog's (back to back).
+pub const BACKLOG_FRACTION: f64 = 0.5;
+
 /// Counters of what happened to frames and windows (see the module docs).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
 pub struct Health {
-    /// Frames received.
+    /// Frames received and classified (a frame held after a silence is counted when
+    /// its bucket is decided: module docs).
     pub frames_total: u64,
     /// Frames whose samples were used, in sequence.
     pub used: u64,
@@ -253,6 +275,13 @@ pub enum Disposition {
     },
     /// Timestamp before the previous frame's; dropped.
     Late {
+        /// Channel index.
+        channel: usize,
+    },
+    /// The first frame after a silence by the clock that the counter does not see:
+    /// held, not yet counted, until the channel's next frame says whether the silence
+    /// was a loss or a hold-up (module docs).
+    Held {
         /// Channel index.
         channel: usize,
     },
@@ -458,8 +487,29 @@ struct ChannelState {
     /// Interface of the channel's first frame that named one.
     iface: Option<heapless::String<16>>,
     pending_gap: bool,
+    /// The first frame after a silence, waiting for the channel's next frame.
+    held: Option<HeldFrame>,
     /// The seconds before the window (first channel only), for the physics.
     history: Option<Box<SampleRing<HISTORY>>>,
+}
+
+/// A frame held after a silence by the clock (module docs).
+#[derive(Debug)]
+struct HeldFrame {
+    samples: heapless::Vec<f32, MAX_SAMPLES_PER_FRAME>,
+    ts_us: u64,
+    /// Frames lost if the silence was a loss: the clock's count.
+    lost: u64,
+    /// A junction was already pending before the frame (a late frame dropped).
+    gap_before: bool,
+}
+
+/// How a held frame was decided, for [`Pipeline::push`] to count and store it.
+#[derive(Debug)]
+struct Decided {
+    channel: usize,
+    frame: HeldFrame,
+    backlog: bool,
 }
 
 /// Buffers of the physical diagnosis (`pumptwin_core::diagnosis`) over the history:
@@ -518,6 +568,8 @@ pub struct Pipeline {
     /// The first [`MAX_UNKNOWN_IDS`] distinct identifiers the sensor map does not
     /// name, for the message when no frame was usable.
     unknown_ids: Vec<u32>,
+    /// A held frame decided by the frame being pushed.
+    decided: Option<Decided>,
 }
 
 /// Distinct unknown identifiers remembered.
@@ -553,6 +605,7 @@ impl Pipeline {
                     last_ts_us: None,
                     iface: None,
                     pending_gap: false,
+                    held: None,
                     history: (i == 0).then(|| Box::new(SampleRing::new())),
                 })
             })
@@ -587,6 +640,7 @@ impl Pipeline {
             physics_pending: None,
             last_physics: (None, None),
             unknown_ids: Vec::new(),
+            decided: None,
         })
     }
 
@@ -730,7 +784,6 @@ impl Pipeline {
     /// Take one frame: classify and count it, store its samples, and return the windows
     /// it completed.
     pub fn push(&mut self, frame: &Frame) -> Pushed {
-        self.health.frames_total += 1;
         let late = self.last_ts_us.is_some_and(|t| frame.ts_us < t);
         self.last_ts_us = Some(frame.ts_us);
         let disposition = match frame.kind {
@@ -738,6 +791,13 @@ impl Pipeline {
             FrameKind::Error => Disposition::ErrorFrame,
             FrameKind::Data => self.classify_data(frame, late),
         };
+        let mut windows = Vec::new();
+        if let Some(decided) = self.decided.take() {
+            self.store_decided(decided, &mut windows);
+        }
+        if !matches!(disposition, Disposition::Held { .. }) {
+            self.health.frames_total += 1;
+        }
         let h = &mut self.health;
         let store = match disposition {
             Disposition::Used { channel } => {
@@ -785,6 +845,7 @@ impl Pipeline {
                 h.late += 1;
                 None
             }
+            Disposition::Held { .. } => None,
             Disposition::Remote => {
                 h.remote += 1;
                 None
@@ -794,7 +855,6 @@ impl Pipeline {
                 None
             }
         };
-        let mut windows = Vec::new();
         if let Some(channel) = store {
             self.store(channel, frame.ts_us, &mut windows);
         }
@@ -802,6 +862,50 @@ impl Pipeline {
             disposition,
             windows,
         }
+    }
+
+    /// Decide the frames still held after a silence (by the clock alone: no frame
+    /// came after them), count and store them, and return the windows they complete.
+    /// Call once, at the end of the input.
+    pub fn finish(&mut self) -> Vec<Window> {
+        let mut windows = Vec::new();
+        for channel in 0..self.channels.len() {
+            if let Some(frame) = self.channels[channel].held.take() {
+                let decided = Decided {
+                    channel,
+                    frame,
+                    backlog: false,
+                };
+                self.store_decided(decided, &mut windows);
+            }
+        }
+        windows
+    }
+
+    /// Count a decided held frame and store its samples, with a junction before them
+    /// unless the silence was a hold-up; the flag the frame being pushed left for its
+    /// own samples is kept for them.
+    fn store_decided(&mut self, decided: Decided, windows: &mut Vec<Window>) {
+        let Decided {
+            channel,
+            frame,
+            backlog,
+        } = decided;
+        let h = &mut self.health;
+        h.frames_total += 1;
+        if backlog {
+            h.used += 1;
+        } else {
+            h.out_of_sequence += 1;
+            h.lost_frames += frame.lost;
+        }
+        let junction = frame.gap_before || !backlog;
+        let pushed_gap = std::mem::replace(&mut self.channels[channel].pending_gap, junction);
+        let mut samples = frame.samples;
+        std::mem::swap(&mut self.decoded, &mut samples);
+        self.store(channel, frame.ts_us, windows);
+        std::mem::swap(&mut self.decoded, &mut samples);
+        self.channels[channel].pending_gap = pushed_gap;
     }
 
     /// Decode a data frame into `self.decoded` and decide its bucket; updates the
@@ -827,6 +931,20 @@ impl Pipeline {
             Ok(seq) => seq,
             Err(error) => return Disposition::Malformed { channel, error },
         };
+        let period_us = 1e6 * ch.spec.samples_per_frame as f64 / f64::from(self.machine.fs_hz);
+        let duplicate = seq.is_some_and(|s| {
+            ch.expected_seq == Some(s.wrapping_add(1)) && ch.last_payload == frame.data[..]
+        });
+        if !duplicate {
+            if let Some(held) = ch.held.take() {
+                let since_us = frame.ts_us.saturating_sub(held.ts_us) as f64;
+                self.decided = Some(Decided {
+                    channel,
+                    frame: held,
+                    backlog: !late && since_us < BACKLOG_FRACTION * period_us,
+                });
+            }
+        }
         if late {
             // Its samples are dropped: the stream has a junction here, and the counter
             // moves past the frame so the next one is not blamed for it.
@@ -836,54 +954,56 @@ impl Pipeline {
             }
             return Disposition::Late { channel };
         }
+        if duplicate {
+            return Disposition::Duplicate { channel };
+        }
         // Frames missing by the clock: more than half the counter's range of frame
         // periods since this channel's last frame is a gap, whatever the counter says
         // (a run of 256 lost frames brings it back to where it was; a channel without
         // a counter has only the clock). Below that, reception jitter is not a gap.
-        let period_us = 1e6 * ch.spec.samples_per_frame as f64 / f64::from(self.machine.fs_hz);
         let missing_by_clock = ch
             .last_ts_us
             .replace(frame.ts_us)
             .map(|t| frame.ts_us.saturating_sub(t) as f64 / period_us - 1.0)
             .filter(|&m| m > TIME_GAP_FRAMES)
             .map(|m| m.round() as u64);
-        let Some(s) = seq else {
-            // Without a counter a copy cannot be told from a frame of equal samples.
-            return match missing_by_clock {
-                Some(m) => {
-                    ch.pending_gap = true;
-                    Disposition::OutOfSequence {
-                        channel,
-                        lost: if m <= CLOCK_COUNT_FRAMES { m } else { 0 },
-                    }
-                }
-                None => Disposition::Used { channel },
-            };
-        };
-        if ch.expected_seq == Some(s.wrapping_add(1)) && ch.last_payload == frame.data[..] {
-            return Disposition::Duplicate { channel };
-        }
-        ch.last_payload.clear();
-        ch.last_payload.extend_from_slice(&frame.data);
-        let jump = ch.expected_seq.map_or(0, |e| s.wrapping_sub(e));
-        ch.expected_seq = Some(s.wrapping_add(1));
-        match missing_by_clock {
-            // The counter counts losses modulo 256; the clock says how many wraps.
-            Some(by_clock) => {
-                ch.pending_gap = true;
-                let j = u64::from(jump);
-                let wraps = if by_clock <= CLOCK_COUNT_FRAMES {
-                    ((by_clock as f64 - j as f64) / 256.0).round().max(0.0) as u64
-                } else {
-                    0
+        // The counter counts losses modulo 256; the clock says how many wraps.
+        let (jump, lost_by_clock) = match seq {
+            None => (0, missing_by_clock),
+            Some(s) => {
+                ch.last_payload.clear();
+                ch.last_payload.extend_from_slice(&frame.data);
+                let j = ch.expected_seq.map_or(0, |e| s.wrapping_sub(e));
+                ch.expected_seq = Some(s.wrapping_add(1));
+                let wraps = |by_clock: u64| {
+                    ((by_clock as f64 - f64::from(j)) / 256.0).round().max(0.0) as u64
                 };
-                Disposition::OutOfSequence {
-                    channel,
-                    lost: j + 256 * wraps,
-                }
+                (j, missing_by_clock.map(|m| u64::from(j) + 256 * wraps(m)))
             }
-            None if jump == 0 => Disposition::Used { channel },
-            None => {
+        };
+        match (missing_by_clock, lost_by_clock) {
+            (Some(m), Some(lost)) if jump == 0 && m <= CLOCK_COUNT_FRAMES => {
+                // Only the clock sees this silence: a loss or a hold-up, as the next
+                // frame will tell.
+                ch.held = Some(HeldFrame {
+                    samples: self.decoded.clone(),
+                    ts_us: frame.ts_us,
+                    lost,
+                    gap_before: std::mem::take(&mut ch.pending_gap),
+                });
+                Disposition::Held { channel }
+            }
+            (Some(m), _) => {
+                ch.pending_gap = true;
+                let lost = if m <= CLOCK_COUNT_FRAMES {
+                    lost_by_clock.unwrap_or(0)
+                } else {
+                    u64::from(jump)
+                };
+                Disposition::OutOfSequence { channel, lost }
+            }
+            (None, _) if jump == 0 => Disposition::Used { channel },
+            (None, _) => {
                 ch.pending_gap = true;
                 Disposition::OutOfSequence {
                     channel,

@@ -141,6 +141,54 @@ fn a_run_of_256_lost_frames_is_counted_by_the_clock() {
         .any(|w| w["discontinuous"].to_string().contains("FE")));
 }
 
+/// A sender that stalls for 300 frame periods (a VM descheduled, a bridge that
+/// buffers) and then sends its backlog back to back, 20 µs apart, until it has caught
+/// up: nothing was lost, and the counter (DE) and the samples say so, but the clock
+/// sees a silence of more than 256 periods on both channels. The frames after it come
+/// faster than the sender's pace, so the silence was a hold-up: every frame is used,
+/// none counted lost, and the windows are the clean run's, none degraded.
+#[test]
+fn a_stalled_sender_that_sends_its_backlog_loses_nothing() {
+    let period_us = 4.0 / FS * 1e6;
+    let mut frames = clean(24_000);
+    let stall_at = frames[frames.len() / 3].ts_us;
+    let resume = stall_at + (300.0 * period_us) as u64;
+    let mut prev = 0;
+    for f in &mut frames {
+        if f.ts_us >= stall_at {
+            f.ts_us = f.ts_us.max(resume).max(prev + 20);
+        }
+        prev = f.ts_us;
+    }
+    let h = same_windows_as_clean(frames);
+    assert_eq!((h.out_of_sequence, h.lost_frames, h.late), (0, 0, 0), "{h}");
+}
+
+/// The input ends right after a silence: the frame after it has no successor to say
+/// whether the silence was a loss or a hold-up. It is decided by the clock at the
+/// end of the input — counted `out_of_sequence`, its 256 frames lost — not left out.
+#[test]
+fn a_frame_after_a_silence_at_the_end_of_the_input_is_counted() {
+    let mut de_seen = 0;
+    let mut kept: Vec<Frame> = clean(48_000)
+        .into_iter()
+        .filter(|f| {
+            f.id != DE || {
+                de_seen += 1;
+                !(2_000..2_256).contains(&de_seen)
+            }
+        })
+        .collect();
+    // The input ends with the first DE frame after the silence.
+    let end_us = kept.iter().filter(|f| f.id == DE).nth(1_999).unwrap().ts_us;
+    kept.retain(|f| f.ts_us <= end_us);
+    let delivered = kept.len() as u64;
+    let (_, h) = run_frames(MAP_DE_FE, kept);
+    assert_adds_up(&h);
+    assert_eq!(h.frames_total, delivered);
+    assert_eq!((h.out_of_sequence, h.lost_frames), (1, 256), "{h}");
+}
+
 /// An hour of silence in the middle of the log (every frame after it stamped an
 /// hour later): FE has no counter and DE's counter runs on as if nothing happened,
 /// but by the clock both streams have a junction there, and the window across it is

@@ -127,6 +127,8 @@ fuzz_target!(|data: &[u8]| {
             // Not `track_pending()`: the RK4 tracker is no parser (it is in the
             // no-panic proof and the core's tests); here it would cut the rate 3.5×.
         }
+        // A frame held after a silence is counted once it is decided.
+        let _ = pipeline.finish();
         let h = pipeline.health();
         assert_eq!(h.frames_total, pushed);
         assert_eq!(
