@@ -3,11 +3,18 @@
 //!
 //! ```text
 //! open CanFdSocket(IFACE)  (FD mode: classic and FD frames alike)
-//!   read with a 100 ms timeout → Frame {ts = reception time (system clock), id, flags, data}
+//!   read with a 100 ms timeout → Frame {ts = the kernel's reception time, id, flags, data}
 //!   timeout          → check the stop flag / idle limit, read again
 //!   interface down   → close; reopen with backoff 100 ms · 2^k (≤ 5 s), counted
 //! stop flag (SIGINT/SIGTERM) → no more frames: the gateway flushes and exits 0
 //! ```
+//!
+//! A frame's time is the kernel's reception time (`SO_TIMESTAMPNS`, as candump's),
+//! not the time the gateway reads it: a gateway busy with a window reads the frames
+//! that queued meanwhile in one burst, and stamped on reading they would show a
+//! silence and a burst that are the gateway's own doing, which the pipeline's clock
+//! would read as lost frames. Where the kernel gives no time, the reading time stands
+//! in (said once on stderr).
 //!
 //! Error frames arrive as frames (`FrameKind::Error`) and are counted by the pipeline
 //! like every other frame; nothing read is dropped silently.
@@ -54,6 +61,8 @@ pub struct SocketCanSource {
     /// Times the interface was (re)opened after the first open.
     pub reconnects: u64,
     opened_once: bool,
+    /// The kernel's reception times are on (else frames are stamped when read).
+    kernel_time: bool,
 }
 
 impl SocketCanSource {
@@ -78,6 +87,7 @@ impl SocketCanSource {
             backoff: BACKOFF_START,
             reconnects: 0,
             opened_once: false,
+            kernel_time: false,
         }
     }
 
@@ -106,6 +116,13 @@ impl SocketCanSource {
                 (id | libc_flags::EFF, 0x1FFF_FFFF | libc_flags::EFF)
             };
             s.set_filters(&[CanFilter::new_inverted(word, mask)])?;
+        }
+        self.kernel_time = s.set_recv_timestamp(true).is_ok();
+        if !self.kernel_time && !self.opened_once {
+            eprintln!(
+                "pumptwin-edge: {}: no kernel reception times; frames are stamped when read",
+                self.iface
+            );
         }
         let raw = s.as_raw_socket();
         if raw.set_recv_buffer_size(RECV_BUFFER).is_ok() && !self.opened_once {
@@ -146,10 +163,21 @@ impl FrameSource for SocketCanSource {
                 }
                 continue;
             };
-            match socket.read_frame() {
-                Ok(f) => {
+            let read = if self.kernel_time {
+                socket
+                    .read_frame_with_timestamps()
+                    .map(|(f, t)| (f, t.socket.map(system_us)))
+            } else {
+                socket.read_frame().map(|f| (f, None))
+            };
+            match read {
+                Ok((f, kernel_us)) => {
                     self.last_frame = Instant::now();
-                    return Some(Ok(to_frame(&f, &self.iface)));
+                    let mut frame = to_frame(&f, &self.iface);
+                    if let Some(ts_us) = kernel_us {
+                        frame.ts_us = ts_us;
+                    }
+                    return Some(Ok(frame));
                 }
                 Err(e) if e.should_retry() || e.kind() == io::ErrorKind::Interrupted => {}
                 Err(e) => {
@@ -164,8 +192,11 @@ impl FrameSource for SocketCanSource {
 }
 
 fn now_us() -> u64 {
-    SystemTime::now()
-        .duration_since(UNIX_EPOCH)
+    system_us(SystemTime::now())
+}
+
+fn system_us(t: SystemTime) -> u64 {
+    t.duration_since(UNIX_EPOCH)
         .map_or(0, |d| d.as_micros() as u64)
 }
 
@@ -176,7 +207,8 @@ fn raw_id(id: Id) -> (u32, bool) {
     }
 }
 
-/// A socketcan frame as the pipeline's [`Frame`], stamped now.
+/// A socketcan frame as the pipeline's [`Frame`], stamped now (the source puts the
+/// kernel's reception time in its place where it has it).
 pub fn to_frame(f: &CanAnyFrame, iface: &str) -> Frame {
     let mut iface_s = heapless::String::new();
     for c in iface.chars() {
