@@ -194,14 +194,6 @@ impl<'a> LineTracer<'a> {
                             && (self.lines[i].f_hz - k * mains).abs() < self.tol(self.lines[i].f_hz)
                     })
                     .collect();
-                let record_hz: Vec<f64> = members
-                    .iter()
-                    .map(|&i| self.record_hz(self.lines[i]))
-                    .collect();
-                let not_shaft = record_hz
-                    .iter()
-                    .filter(|&&f| self.clearly_off_orders(f))
-                    .count();
                 // Mains interference carries its fundamental or its low harmonics (the 3rd
                 // of a rectifier's or a saturated transformer's current), and two of its
                 // lines at least must not be shaft orders: among the dozens of lines a
@@ -210,15 +202,29 @@ impl<'a> LineTracer<'a> {
                 let low = members
                     .iter()
                     .any(|&i| (self.lines[i].f_hz / mains).round() <= 3.0);
+                if !low {
+                    continue;
+                }
+                // A line off the orders by the PSD's own tolerance is off them; one the PSD
+                // cannot tell from an order is read off the whole record (a DFT of the
+                // record around it each).
+                let off =
+                    |c: &Component| !self.is_order(c) || self.clearly_off_orders(self.record_hz(c));
+                let not_shaft = members.iter().filter(|&&i| off(self.lines[i])).count();
                 // Or the fundamental alone, off the shaft's orders and at the grid's own
                 // frequency within its tolerance: a tone that happened to fall there is
                 // far less likely than mains (a weak family's higher harmonics drown).
-                let fundamental = members.iter().zip(&record_hz).any(|(&i, &f)| {
-                    (self.lines[i].f_hz / mains).round() == 1.0
-                        && self.clearly_off_orders(f)
-                        && (f - mains).abs() <= (MAINS_REL_TOL * mains).max(self.resolution())
-                });
-                if (low && not_shaft >= 2) || fundamental {
+                let fundamental = not_shaft < 2
+                    && members.iter().any(|&i| {
+                        let c = self.lines[i];
+                        (c.f_hz / mains).round() == 1.0 && {
+                            let f = self.record_hz(c);
+                            self.clearly_off_orders(f)
+                                && (f - mains).abs()
+                                    <= (MAINS_REL_TOL * mains).max(self.resolution())
+                        }
+                    });
+                if not_shaft >= 2 || fundamental {
                     let comps: Vec<Component> =
                         members.iter().map(|&i| self.lines[i].clone()).collect();
                     members.iter().for_each(|&i| self.used[i] = true);
