@@ -11,7 +11,8 @@
 //! | [`dbc`] | slow sensors (shaft speed, temperature, pressure) from DBC signals (`can-dbc`) |
 //! | [`sensor_map`] | TOML sensor map: machine (speed, bearing, fs) and channel layouts, validated |
 //! | [`ring`] | fixed-size sample ring addressed by absolute sample index |
-//! | [`pipeline`] | frame classification and health counters, windows, core features per channel |
+//! | [`pipeline`] | frame classification, windows, core features per channel |
+//! | [`health`] | the frame and window counters and a frame's bucket |
 //! | [`explain`] | envelope peak → nearest kinematic line (shaft, BPFO, BPFI, BSF, FTF) |
 //! | [`report`] | the JSON line of a window |
 //! | [`diagnosis`] | the extension point for diagnosers |
@@ -39,6 +40,7 @@ pub mod dbc;
 pub mod diagnosis;
 pub mod explain;
 pub mod gateway;
+pub mod health;
 pub mod live;
 pub mod mqtt;
 pub mod network;
