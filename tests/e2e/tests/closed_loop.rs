@@ -573,6 +573,52 @@ fn two_undeclared_tones_are_both_found() {
     assert!(report.residual_noise_like, "{}", report.stop_reason);
 }
 
+/// The clean record with sinusoids at `lines` (Hz, amplitude relative to the record's
+/// standard deviation) added.
+fn with_lines(lines: &[(f64, f64)]) -> Vec<f32> {
+    let mut x = clean_record();
+    let n = x.len() as f64;
+    let std = (x.iter().map(|v| f64::from(*v).powi(2)).sum::<f64>() / n).sqrt();
+    let fs = f64::from(FS_HZ);
+    for (j, v) in x.iter_mut().enumerate() {
+        let t = j as f64 / fs;
+        let s: f64 = lines
+            .iter()
+            .map(|&(f, a)| a * std * (2.0 * std::f64::consts::PI * f * t).sin())
+            .sum();
+        *v += s as f32;
+    }
+    x
+}
+
+/// At 1797 rpm, 60 Hz mains and its 3rd harmonic lie 0.1 Hz and 0.3 Hz from the
+/// shaft's 2nd and 6th orders, closer than a 4 s record resolves. Their pattern
+/// decides: the fundamental and an odd harmonic, with no line at the orders between,
+/// is mains; the same two lines among the shaft's 1st and 3rd are the shaft's.
+#[test]
+fn mains_on_shaft_orders_is_told_by_its_pattern() {
+    let shaft = f64::from(RPM) / 60.0;
+    let mains = loop_signal(with_lines(&[(60.0, 0.08), (180.0, 0.04)]));
+    assert!(
+        mains.effects.iter().any(|e| e == "line_interference"),
+        "effects {:?}",
+        mains.effects
+    );
+    let orders: Vec<(f64, f64)> = [(1.0, 0.1), (2.0, 0.08), (3.0, 0.06), (6.0, 0.04)]
+        .iter()
+        .map(|&(k, a)| (k * shaft, a))
+        .collect();
+    let shaft_family = loop_signal(with_lines(&orders));
+    assert!(
+        !shaft_family
+            .effects
+            .iter()
+            .any(|e| e == "line_interference"),
+        "effects {:?}",
+        shaft_family.effects
+    );
+}
+
 /// A short snapshot (1.2 s) at a rate below the model's (8 kHz, resampled from the
 /// generator's 12 kHz) is fitted at its own rate and shorter Welch blocks, and its
 /// undeclared mains family is still found.

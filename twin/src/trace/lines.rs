@@ -155,6 +155,35 @@ impl<'a> LineTracer<'a> {
         })
     }
 
+    /// Do `members` (lines at multiples of `mains`, each also a shaft order) have the
+    /// pattern of mains rather than of a shaft? Where the grid's frequency is itself
+    /// the shaft's k-th order (k ≥ 2: 50 Hz at 1500 rpm is 2×), the record cannot tell
+    /// the lines apart one by one, but the family can: pickup from a mains-fed circuit
+    /// carries the fundamental and odd harmonics (1, 3, 5…), which as shaft orders are
+    /// k, 3k, 5k… — a force at the shaft's orders that skipped every order between. So
+    /// the mains reading wins where the fundamental and an odd harmonic stand, no even
+    /// harmonic does, and no other shaft order below the family's top has a line (1×
+    /// is where unbalance puts its line first; with it, the shaft may own them all and
+    /// the shaft reading stays, noting the ambiguity).
+    fn mains_pattern(&self, members: &[usize], mains: f64) -> bool {
+        let k0 = (mains / self.shaft).round();
+        if k0 < 2.0 || (mains - k0 * self.shaft).abs() >= self.tol(mains) {
+            return false;
+        }
+        let harmonic = |i: usize| (self.lines[i].f_hz / mains).round();
+        let odd_only = members.iter().all(|&i| harmonic(i) % 2.0 == 1.0);
+        let fundamental = members.iter().any(|&i| harmonic(i) == 1.0);
+        if members.len() < 2 || !odd_only || !fundamental {
+            return false;
+        }
+        let top = members.iter().map(|&i| harmonic(i)).fold(0.0, f64::max) * k0;
+        let between = (0..self.lines.len()).any(|i| {
+            let c = self.lines[i];
+            !members.contains(&i) && self.is_order(c) && c.order.round() < top
+        });
+        !between
+    }
+
     /// A family's strongest `MAX_TONES` lines, and the strongest one's excess: every
     /// tone is a parameter the refit differentiates by simulation, and a measured record
     /// can carry dozens of shaft-order lines (CWRU 118: 18); the weaker ones stay in the
@@ -224,7 +253,10 @@ impl<'a> LineTracer<'a> {
                                     <= (MAINS_REL_TOL * mains).max(self.resolution())
                         }
                     });
-                if not_shaft >= 2 || fundamental {
+                // Or a family the record cannot place off the orders but whose pattern is
+                // mains' and not a shaft's (`mains_pattern`).
+                let pattern = not_shaft < 2 && !fundamental && self.mains_pattern(&members, mains);
+                if not_shaft >= 2 || fundamental || pattern {
                     let comps: Vec<Component> =
                         members.iter().map(|&i| self.lines[i].clone()).collect();
                     members.iter().for_each(|&i| self.used[i] = true);
@@ -236,7 +268,7 @@ impl<'a> LineTracer<'a> {
                     out.push(Candidate {
                         effect: Effect::LineInterference { freqs: freqs.clone() },
                         evidence: evidence(
-                            format!("{} line(s) at multiples of {mains} Hz ({:?} Hz), {not_shaft} of them not shaft-synchronous", comps.len(), freqs),
+                            format!("{} line(s) at multiples of {mains} Hz ({:?} Hz), {not_shaft} of them not shaft-synchronous{}", comps.len(), freqs, if pattern { "; each is also a shaft order, but the family is mains' (its fundamental and odd harmonics only, no line at the shaft's orders between)" } else { "" }),
                             comps,
                         ),
                         strength,
