@@ -574,20 +574,12 @@ fn two_undeclared_tones_are_both_found() {
 }
 
 /// The clean record with sinusoids at `lines` (Hz, amplitude relative to the record's
-/// standard deviation) added.
+/// RMS) added.
 fn with_lines(lines: &[(f64, f64)]) -> Vec<f32> {
     let mut x = clean_record();
-    let n = x.len() as f64;
-    let std = (x.iter().map(|v| f64::from(*v).powi(2)).sum::<f64>() / n).sqrt();
-    let fs = f64::from(FS_HZ);
-    for (j, v) in x.iter_mut().enumerate() {
-        let t = j as f64 / fs;
-        let s: f64 = lines
-            .iter()
-            .map(|&(f, a)| a * std * (2.0 * std::f64::consts::PI * f * t).sin())
-            .sum();
-        *v += s as f32;
-    }
+    let rms = (x.iter().map(|v| f64::from(*v).powi(2)).sum::<f64>() / x.len() as f64).sqrt();
+    let tones: Vec<(f64, f64, f64)> = lines.iter().map(|&(f, a)| (f, a * rms, 0.0)).collect();
+    add_tones(&mut x, FS_HZ, &tones);
     x
 }
 
