@@ -114,14 +114,11 @@ fn random_frame_loss_is_counted_where_a_counter_can_see_it() {
     assert!(lines.iter().all(|w| w["channels"]["DE"]["rms"].is_number()));
 }
 
-/// 256 consecutive DE frames lost: the 8-bit counter comes back to where it was and
-/// sees nothing, but the clock sees 256 frame periods of silence. The frame after
-/// the run is `out_of_sequence`, exactly 256 frames are `lost_frames`, and the
-/// junction's windows are `discontinuous`. FE, which kept sending, is untouched.
-#[test]
-fn a_run_of_256_lost_frames_is_counted_by_the_clock() {
+/// The clean run without DE's 2 000th to 2 255th frames: 256 in a row, so the 8-bit
+/// counter comes back to where it was.
+fn clean_without_256_de_frames() -> Vec<Frame> {
     let mut de_seen = 0;
-    let kept: Vec<Frame> = clean(48_000)
+    clean(48_000)
         .into_iter()
         .filter(|f| {
             f.id != DE || {
@@ -129,7 +126,16 @@ fn a_run_of_256_lost_frames_is_counted_by_the_clock() {
                 !(2_000..2_256).contains(&de_seen)
             }
         })
-        .collect();
+        .collect()
+}
+
+/// 256 consecutive DE frames lost: the 8-bit counter comes back to where it was and
+/// sees nothing, but the clock sees 256 frame periods of silence. The frame after
+/// the run is `out_of_sequence`, exactly 256 frames are `lost_frames`, and the
+/// junction's windows are `discontinuous`. FE, which kept sending, is untouched.
+#[test]
+fn a_run_of_256_lost_frames_is_counted_by_the_clock() {
+    let kept = clean_without_256_de_frames();
     let (lines, h) = run_frames(MAP_DE_FE, kept);
     assert_adds_up(&h);
     assert_eq!((h.lost_frames, h.out_of_sequence), (256, 1), "{h}");
@@ -169,16 +175,7 @@ fn a_stalled_sender_that_sends_its_backlog_loses_nothing() {
 /// end of the input — counted `out_of_sequence`, its 256 frames lost — not left out.
 #[test]
 fn a_frame_after_a_silence_at_the_end_of_the_input_is_counted() {
-    let mut de_seen = 0;
-    let mut kept: Vec<Frame> = clean(48_000)
-        .into_iter()
-        .filter(|f| {
-            f.id != DE || {
-                de_seen += 1;
-                !(2_000..2_256).contains(&de_seen)
-            }
-        })
-        .collect();
+    let mut kept = clean_without_256_de_frames();
     // The input ends with the first DE frame after the silence.
     let end_us = kept.iter().filter(|f| f.id == DE).nth(1_999).unwrap().ts_us;
     kept.retain(|f| f.ts_us <= end_us);
