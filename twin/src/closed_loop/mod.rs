@@ -254,6 +254,10 @@ mod tests {
         let held = x[499];
         x[500..560].fill(held);
         assert_eq!(held_runs(&x), 2);
+        assert_eq!(
+            record::held_spans(&x),
+            vec![100..100 + HELD_RUN_MIN, 499..560]
+        );
         assert_eq!(held_runs(&[]), 0);
     }
 

@@ -3,6 +3,7 @@
 
 use super::types::LoopReport;
 use crate::signature::{to_db, Signature, SignatureConfig};
+use std::ops::Range;
 
 /// Shortest run of one value, repeated sample for sample, that counts as a dropout: a
 /// vibration sensor's signal with its noise never holds one value that long (no CWRU
@@ -12,19 +13,23 @@ pub const HELD_RUN_MIN: usize = 8;
 
 /// Runs of at least [`HELD_RUN_MIN`] equal consecutive samples in `x`: dropouts.
 pub fn held_runs(x: &[f32]) -> usize {
-    let mut runs = 0;
-    let mut len = 1;
-    for w in x.windows(2) {
-        if w[1] == w[0] {
-            len += 1;
-            if len == HELD_RUN_MIN {
-                runs += 1;
+    held_spans(x).len()
+}
+
+/// The spans of `x` (sample ranges) where it holds one value for at least
+/// [`HELD_RUN_MIN`] samples: the acquisition's dropouts, in order.
+pub fn held_spans(x: &[f32]) -> Vec<Range<usize>> {
+    let mut spans = Vec::new();
+    let mut start = 0;
+    for i in 1..=x.len() {
+        if i == x.len() || x[i] != x[start] {
+            if i - start >= HELD_RUN_MIN {
+                spans.push(start..i);
             }
-        } else {
-            len = 1;
+            start = i;
         }
     }
-    runs
+    spans
 }
 
 /// Largest RMS, in g, taken as a bearing housing's acceleration. The model works in g

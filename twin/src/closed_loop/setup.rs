@@ -2,12 +2,13 @@
 //! the longest span the loop reads, AC-coupled), its dropouts, the signature settings
 //! and targets of the fit and of the residual, and the fit settings.
 
-use super::record::{ac_couple, held_runs, psd_low_edge, MAX_RMS_G};
+use super::record::{ac_couple, held_runs, held_spans, psd_low_edge, MAX_RMS_G};
 use super::types::{LoopConfig, LoopError, LoopInput};
 use crate::fit::{FitConfig, Target};
 use crate::signature::{Signature, SignatureConfig, SignatureError};
 use crate::trace::context::has;
 use crate::twin::{EffectKind, OperatingPoint, TwinModel};
+use std::ops::Range;
 
 /// Relative gain that keeps the first fit iterating: its Θ are the trainer's F_map
 /// targets (`crate::physics::fit_theta`), fitted to convergence.
@@ -22,6 +23,10 @@ pub(super) struct Setup<'a> {
     pub(super) x: Vec<f32>,
     /// Runs of one held value (acquisition dropouts) in the record as read.
     pub(super) dropouts: usize,
+    /// The spans where the record as compared holds one value (its dropouts, where the
+    /// filter of a band-limiting caller left them held); [`Setup::residual_of`] gives
+    /// the model's realization the same holds.
+    pub(super) holds: Vec<Range<usize>>,
     /// Rate and the bearing's frequencies at the nominal speed.
     pub(super) op: OperatingPoint,
     /// Signature settings of the fit (eq. 10).
@@ -51,6 +56,7 @@ impl<'a> Setup<'a> {
         let n_max = (cfg.max_record_seconds * f64::from(input.fs_hz)) as usize;
         let record = &input.signal[..input.signal.len().min(n_max)];
         let dropouts = input.held_runs.unwrap_or_else(|| held_runs(record));
+        let holds = held_spans(record);
         let x = ac_couple(record, input.fs_hz);
         let too_short =
             |e: SignatureError| LoopError::Input(format!("the record is too short: {e}"));
@@ -109,6 +115,7 @@ impl<'a> Setup<'a> {
             cfg,
             x,
             dropouts,
+            holds,
             op,
             sig_fit,
             sig_res,
@@ -147,11 +154,25 @@ impl<'a> Setup<'a> {
         Ok(Some([halves[0].cost(&sigs[0]), halves[1].cost(&sigs[1])]))
     }
 
-    /// The model `m` simulated over the residual's span, and its signature.
+    /// The model `m` simulated over the residual's span, as the record's acquisition
+    /// would have recorded it, and its signature.
+    ///
+    /// Where the record holds one value (a dropout), the realization holds the record's
+    /// values too: the acquisition that lost the bearing's signal there would have lost
+    /// the model's. A hold gates the signal, and its steps and its slow pulse (a held
+    /// value off the baseline for tens of milliseconds) put low-frequency content and
+    /// ripple into the record's spectrum that no bearing makes; with the same holds in
+    /// both, the residual compares like with like and reads no line off them. (The fit's
+    /// realizations, shorter than the record, are left as they are: it matches the
+    /// PSD's level band by band, not its lines.)
     pub(super) fn residual_of(&self, m: &TwinModel) -> Result<(Vec<f32>, Signature), LoopError> {
-        let y = m
+        let mut y = m
             .render(self.n_res, self.cfg.seed ^ 0x5eed)
             .map_err(|e| LoopError::Fit(e.into()))?;
+        let n = y.len();
+        for h in self.holds.iter().filter(|h| h.end <= n) {
+            y[h.clone()].copy_from_slice(&self.x[h.clone()]);
+        }
         let s = Signature::of(&y, &self.sig_res).map_err(|e| LoopError::Fit(e.into()))?;
         Ok((y, s))
     }
