@@ -526,8 +526,10 @@ const FLOOR_BINS: usize = 32;
 /// the median, so that sidebands and other lines filling up to half the neighbourhood
 /// do not lift it. `None` where fewer than eight bins or no power are there.
 fn local_floor(env: &[f32], lo: usize, hi: usize) -> Option<f32> {
-    let below = lo.saturating_sub(FLOOR_BINS).max(1)..lo.min(env.len());
-    let above = (hi + 1).min(env.len())..(hi + 1 + FLOOR_BINS).min(env.len());
+    let n = env.len();
+    let (b_end, a_start) = (lo.min(n), (hi + 1).min(n));
+    let below = lo.saturating_sub(FLOOR_BINS).max(1).min(b_end)..b_end;
+    let above = a_start..hi.saturating_add(1 + FLOOR_BINS).min(n);
     let mut v: Vec<f32> = env[below].iter().chain(&env[above]).copied().collect();
     if v.len() < 8 {
         return None;
