@@ -1316,7 +1316,7 @@ pub fn run_twin_cwru(args: &TwinCwruArgs) -> Result<()> {
             raw.name, entry.label, entry.load_hp, rpm
         ));
         details.push_str(&format!(
-            "Fault hypothesis **{}** (envelope levels over the median: BPFO {:.1} dB, BPFI {:.1} dB, BSF {:.1} dB). Fit: f_n = {:.0} Hz, ζ = {:.3}. Stop: {}.\n\n",
+            "Fault hypothesis **{}** (envelope levels, each family over its own floor: BPFO {:.1} dB, BPFI {:.1} dB, BSF {:.1} dB). Fit: f_n = {:.0} Hz, ζ = {:.3}. Stop: {}.\n\n",
             report.fault,
             report.fault_evidence["bpfo_db"].as_f64().unwrap_or(0.0),
             report.fault_evidence["bpfi_db"].as_f64().unwrap_or(0.0),
