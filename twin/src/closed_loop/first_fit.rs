@@ -477,8 +477,8 @@ fn shortfall_peaks(target: &Target, sig: &Signature) -> Vec<(f64, f32)> {
 /// shaft's lines), so any peak of the noise there, where BSF and 2·BSF lie, stood
 /// 10 dB over the whole spectrum's median and a healthy record read as a ball fault:
 /// on the dev side, 23 of 88 healthy records were named a fault and 12 race faults a
-/// ball's; the fault hypothesis was right on 253 of 300 records, now on 282 (held
-/// out, `--seed 2`: 252 → 287). A line is a line by how far it stands above its own
+/// ball's; the fault hypothesis was right on 253 of 300 records, now on 281 (held
+/// out, `--seed 2`: 252 → 288). A line is a line by how far it stands above its own
 /// neighbourhood.
 fn family_level_db(env: &[f32], df: f32, f0_hz: f32, others: &[f32]) -> f32 {
     const HARMONICS: usize = 2;
