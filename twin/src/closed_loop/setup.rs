@@ -2,7 +2,7 @@
 //! the longest span the loop reads, AC-coupled), its dropouts, the signature settings
 //! and targets of the fit and of the residual, and the fit settings.
 
-use super::record::{ac_couple, held_runs, held_spans, psd_low_edge, MAX_RMS_G};
+use super::record::{ac_couple, held_spans, psd_low_edge, MAX_RMS_G};
 use super::types::{LoopConfig, LoopError, LoopInput};
 use crate::fit::{FitConfig, Target};
 use crate::signature::{Signature, SignatureConfig, SignatureError};
@@ -55,8 +55,8 @@ impl<'a> Setup<'a> {
         validate(input)?;
         let n_max = (cfg.max_record_seconds * f64::from(input.fs_hz)) as usize;
         let record = &input.signal[..input.signal.len().min(n_max)];
-        let dropouts = input.held_runs.unwrap_or_else(|| held_runs(record));
         let holds = held_spans(record);
+        let dropouts = input.held_runs.unwrap_or(holds.len());
         let x = ac_couple(record, input.fs_hz);
         let too_short =
             |e: SignatureError| LoopError::Input(format!("the record is too short: {e}"));

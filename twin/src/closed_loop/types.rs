@@ -46,7 +46,7 @@ pub struct LoopConfig {
     /// chosen on the randomized benchmark's dev side (`--seed 1`, 300 records of 6 s):
     /// its 88 healthy records read 2.7 ± 0.5 dB at most (their noise's highest peak
     /// near a defect's lines), the highest 3.7 dB; a fault's own family reads 12-24 dB
-    /// (quartiles over its 212 faulty records), under 5 dB on 5 of them.
+    /// (quartiles over its 212 faulty records), under 5 dB on 7 of them.
     /// A record much shorter than 6 s has fewer envelope averages and a rougher
     /// floor, and needs a higher level.
     pub fault_threshold_db: f32,
