@@ -65,10 +65,6 @@
 //! 2 % slip; a strictly periodic, slip-free train leaves ±1.5 % in `c_r`; real bearings
 //! slip 1–2 %). The defect rate then drops out of the model, and a run covers
 //! 8 decay times (242 samples here) instead of a whole window: ≈ 4× cheaper per update.
-//! The simulator's slip accumulates ([`ImpactTrain`]: each interval jitters, so the
-//! comb's tooth `k` is a Lorentzian of half-width `π·k²·f_d·σ²` rather than a sharp
-//! line over the continuum above); either way the power per comb spacing is the
-//! continuum's, and the argument stands.
 //! The pulse is rendered by [`ImpactTrain`] (eq. 18) with a period beyond the run.
 //!
 //! Other choices, and why:

@@ -57,9 +57,7 @@ pub enum Effect {
         /// The rate the defect turns through the zone at, Hz.
         mod_hz: f64,
     },
-    /// Random impact timing: each interval between impacts is the defect's period times
-    /// `1 + σ·z` (z standard normal, σ the fitted `ln_jitter`), so the slips accumulate
-    /// (Randall & Antoni 2011, §2.2) and the comb's tooth `k` widens as `π·k²·σ²·f_d`.
+    /// Random impact timing.
     Slip,
     /// A spread of the impact strengths (σ of each impact's amplitude relative to the
     /// mean): what every real bearing's impacts have (Randall & Antoni 2011, §2). A

@@ -579,9 +579,7 @@ pub const FLANK_ASYMMETRY_DB: f32 = 3.0;
 /// than the record leaves the residual standing on both flanks of the record's
 /// broader one: a defect's tooth that the rolling elements' slip widens (each interval
 /// `T(1 + σz)`, so the timing is a random walk and tooth `k` a Lorentzian of
-/// half-width `π k² σ² f_d`, Randall & Antoni 2011) against a sharper tooth of the
-/// model's (the model's slip has accumulated since the core's impact train was made a
-/// random walk too, but its fitted slip may fall short of the record's).
+/// half-width `π k² σ² f_d`, Randall & Antoni 2011) against the model's sharp tooth.
 /// Such a tooth is a hump with a noisy, flat and often skewed top (its highest bin
 /// anywhere on it, one flank 3–4 dB above the other's mirror on the benchmark's dev
 /// controls), so the record's shape alone cannot tell a tone on its flank from the

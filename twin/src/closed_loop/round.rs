@@ -163,13 +163,6 @@ fn conclude(
     unexplained_misfit: Option<String>,
 ) -> Next {
     let accepted = kept.is_some();
-    let better_base = st.trials.better_base.take();
-    if let (None, Some(base)) = (&kept, better_base) {
-        // A passenger's refit found a better fit of the model as it is (see
-        // `Trial::without_it`): the next round reads the residual from there.
-        st.current = base;
-        return Next::Again;
-    }
     if let Some((cand, trial)) = kept {
         st.steps.push(LoopStep {
             effect: cand.effect.name().to_string(),

@@ -2,10 +2,8 @@
 //! starts (the effect at its typical strength with the measurement noise lifted, and
 //! the effect at a twentieth of it with the model as it was), and judged: does it
 //! explain its own evidence, lower the error — in the whole record and in each of its
-//! halves — and keep the shown errors from rising on balance; and the model without
-//! it, refitted from where its refit left the rest, must fit clearly worse (or the
-//! effect was a passenger of a better base, which the loop then keeps). Rival
-//! readings of the same lines are tried too, the clearly better kept.
+//! halves — and keep the shown errors from rising on balance. Rival readings of the
+//! same lines are tried too, the clearly better kept.
 
 use super::setup::Setup;
 use super::types::{LoopError, RejectedCandidate};
@@ -150,9 +148,6 @@ pub(super) struct Trials {
     pub(super) rejected: Vec<RejectedCandidate>,
     pub(super) evaluations: usize,
     pub(super) budget_spent: bool,
-    /// A better fit of the model as it is, found where a passenger's refit led
-    /// (see [`Trial::without_it`]): the round ends there and the loop goes on from it.
-    pub(super) better_base: Option<FitResult>,
 }
 
 /// Whether `a` and `b` name a residual line in common (same domain, within 1e-6 Hz).
@@ -195,11 +190,6 @@ pub(super) struct Verdict {
     pub(super) undone: Option<String>,
     /// The cost falls in each half of the record too.
     pub(super) replicated: bool,
-    /// The relative cost gain the effect had to give.
-    pub(super) required: f32,
-    /// The model without the effect, refitted from where the effect's refit left it,
-    /// when it fits as well: the effect was a passenger of a better base.
-    pub(super) passenger: Option<FitResult>,
 }
 
 /// One candidate's refit and verdict (or why neither start could be fitted).
@@ -301,51 +291,7 @@ impl Trial<'_> {
                 }
             }
         }
-        if let Ok((t, v)) = &mut outcome {
-            if v.passes && evaluations < budget {
-                if let Some(base) = self.without_it(plan, t, budget - evaluations) {
-                    evaluations += base.evaluations;
-                    // Its own evidence must need it too: a drift the fit's cost hardly
-                    // sees still moves the comb's teeth the base cannot follow.
-                    let evidence_kept =
-                        !v.explained || self.explains(cand, before, &base.model).unwrap_or(false);
-                    if t.cost >= base.cost * (1.0 - v.required) && evidence_kept {
-                        v.passes = false;
-                        v.passenger = Some(base);
-                    }
-                }
-            }
-        }
         (outcome, evaluations)
-    }
-
-    /// The trial's model without the effect it added, refitted (as the effect was)
-    /// from where the effect's refit left the rest of the model.
-    ///
-    /// An effect's refit starts the base from new points (the measurement noise
-    /// lifted, the effect's strength) and may leave a local optimum the first fit
-    /// stopped in: the base's strength spread and slip underestimated, say, then found
-    /// with a stiffening nobody has along for the ride (dev seed 1, case 72: the PSD
-    /// error 2.4 -> 1.0 dB with the spread 0.16 -> 0.32, the truth 0.29). An effect is
-    /// credited with what removing it loses, the nested models each fitted from the
-    /// best start (a likelihood-ratio comparison's rule): where the base alone, from
-    /// there, fits within the gain the effect had to give and still explains the
-    /// effect's own evidence (where the effect explained it), the effect is a
-    /// passenger, and the better base is the loop's to keep. `None` where the refit
-    /// fails.
-    ///
-    /// A speed drift is not asked: it is offered only on a significant trend of the
-    /// defect rate between the record's halves (`trace::comb`), which no stationary
-    /// base makes, while the loss of the comb's high teeth it is judged on is what a
-    /// base with more slip gives too (dev seed 1: six drifts, every one injected,
-    /// taken for passengers of a slip raised from their fits).
-    fn without_it(&self, plan: RefitPlan, t: &FitResult, budget: usize) -> Option<FitResult> {
-        let i = t.model.effects.len().checked_sub(1)?;
-        if matches!(t.model.effects[i].0, Effect::SpeedDrift { .. }) {
-            return None;
-        }
-        let start = t.model.without_effect(i);
-        self.refit(plan, &start, budget).ok()
     }
 
     /// The second start: the effect's strength parameters at a twentieth of their
@@ -421,23 +367,6 @@ impl Trial<'_> {
         Ok((t, v))
     }
 
-    /// Whether `model` explains `cand`'s evidence, which the current model left
-    /// `before` from explained: the statistic behind it halves, or the lines drop by
-    /// 3 dB.
-    fn explains(
-        &self,
-        cand: &Candidate,
-        before: f32,
-        model: &TwinModel,
-    ) -> Result<bool, LoopError> {
-        let (y, sig) = self.s.residual_of(model)?;
-        let after = self.gap(cand, &y, &sig);
-        Ok(match cand.check {
-            Check::Lines => after <= before - 3.0,
-            _ => after <= 0.5 * before,
-        })
-    }
-
     /// How far the model simulated as `y` (signature `sig`) is from explaining
     /// `cand`'s evidence.
     fn gap(&self, cand: &Candidate, y: &[f32], sig: &Signature) -> f32 {
@@ -473,7 +402,12 @@ impl Trial<'_> {
         trial: &FitResult,
     ) -> Result<Verdict, LoopError> {
         let current = self.current;
-        let explained = self.explains(cand, before, &trial.model)?;
+        let (y_trial, trial_sig) = self.s.residual_of(&trial.model)?;
+        let after = self.gap(cand, &y_trial, &trial_sig);
+        let explained = match cand.check {
+            Check::Lines => after <= before - 3.0,
+            _ => after <= 0.5 * before,
+        };
         // A family of two or more lines at the shaft's orders or half orders or
         // at mains harmonics, explained, need lower the cost by only 0.2 %: a
         // line occupies a few of the PSD's hundreds of bins, so on a record the
@@ -530,8 +464,6 @@ impl Trial<'_> {
             explained,
             shown_ok,
             replicated,
-            required,
-            passenger: None,
         })
     }
 
@@ -619,20 +551,6 @@ impl Trial<'_> {
             };
             if verdict.passes {
                 return Some(self.best_of_rivals(cand, trial, &candidates[i + 1..], trials));
-            }
-            if let Some(base) = verdict.passenger {
-                let reason = format!(
-                    "a passenger: the model without it, refitted from its fit, explains as much (cost {:.3} against {:.3}); the loop goes on from that fit",
-                    base.cost, trial.cost
-                );
-                trials
-                    .rejected
-                    .push(self.rejection(cand, trial.cost, reason));
-                if base.cost < self.current.cost {
-                    trials.better_base = Some(base);
-                    return None;
-                }
-                continue;
             }
             let (b, a) = (&self.current.figures, &trial.figures);
             let reason = if !verdict.replicated {
