@@ -34,6 +34,7 @@ pub mod plot;
 pub mod randomized;
 pub mod report;
 pub mod residual;
+pub mod ringdown;
 pub mod signature;
 pub mod sim;
 pub mod trace;

@@ -7,7 +7,8 @@
 //! residual `d(f) = measured − model`: `d > median(d) + max(6 dB, 5·1.4826·MAD(d))` (5σ over some 2000 bins).
 //! Narrow runs (≤ 4 bins, a Hann main lobe) are lines; wider runs are bands.
 
-use super::signature::{block_within, to_db, welch, Signature, SignatureConfig};
+use super::ringdown::ringdown_frequencies;
+use super::signature::{to_db, welch, Signature, SignatureConfig};
 use super::twin::{Effect, TwinModel};
 use pumptwin_core::features::{envelope, peak_frequency, EnvelopeBand};
 use pumptwin_core::fft::{fft_in_place, Complex32, Direction};
@@ -951,85 +952,6 @@ pub(crate) fn envelope_line(
     let one_sided: Vec<f32> = spec;
     let tol = (0.03 * f).max(2.0 * df);
     peak_frequency(&one_sided, fs, f - tol, f + tol).ok()
-}
-
-/// Ring-down frequency right after each impact vs later in the same ring-down:
-/// `(f_early, f_late)` in Hz, from the unwrapped phase of the band-passed analytic
-/// signal `[lo, hi]`. A hardening stiffness makes the large-amplitude start of each
-/// ring-down faster than its tail; a linear mode rings at one frequency throughout.
-/// `rate_hz` is the impact rate (peaks closer than half a period are merged).
-pub fn ringdown_frequencies(
-    x: &[f32],
-    fs: f32,
-    lo: f32,
-    hi: f32,
-    rate_hz: f32,
-) -> Option<(f32, f32)> {
-    let n = block_within(8192, x.len(), 1);
-    if x.len() < n {
-        return None;
-    }
-    let mut scratch = vec![Complex32::ZERO; n];
-    let fc = 0.5 * (lo + hi);
-    let cycle = (fs / fc).max(2.0);
-    let w1 = (2.0 * cycle).round() as usize; // early window: first two cycles
-    let gap = (1.0 * cycle).round() as usize;
-    let min_sep = (0.5 * fs / rate_hz.max(1.0)) as usize;
-    let (mut se, mut we, mut sl, mut wl) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
-    for start in (0..=x.len() - n).step_by(n) {
-        let seg = &x[start..start + n];
-        let mean = seg.iter().sum::<f32>() / n as f32;
-        for (z, &v) in scratch.iter_mut().zip(seg) {
-            *z = Complex32::new(v - mean, 0.0);
-        }
-        fft_in_place(&mut scratch, Direction::Forward).ok()?;
-        let df = fs / n as f32;
-        for (k, z) in scratch.iter_mut().enumerate() {
-            let f = k as f32 * df;
-            *z = if k > 0 && k < n / 2 && f >= lo && f <= hi {
-                Complex32::new(2.0 * z.re, 2.0 * z.im)
-            } else {
-                Complex32::ZERO
-            };
-        }
-        fft_in_place(&mut scratch, Direction::Inverse).ok()?;
-        let amp: Vec<f32> = scratch.iter().map(|z| z.norm()).collect();
-        let mut sorted = amp.clone();
-        let q = sorted.len() * 99 / 100;
-        let p99 = *sorted.select_nth_unstable_by(q, |a, b| a.total_cmp(b)).1;
-        let margin = 64 + 8 * w1;
-        let mut i = margin;
-        while i + margin < n {
-            // A ring-down starts at a local envelope maximum above 30 % of the 99th percentile.
-            if amp[i] >= 0.3 * p99 && amp[i] >= amp[i - 1] && amp[i] > amp[i + 1] {
-                let phase_span = |a: usize, b: usize| -> f64 {
-                    let mut total = 0.0f64;
-                    for k in a..b {
-                        let (u, v) = (scratch[k], scratch[k + 1]);
-                        total +=
-                            f64::from((v.im * u.re - v.re * u.im).atan2(v.re * u.re + v.im * u.im));
-                    }
-                    total
-                };
-                let a0 = i + 1;
-                let early = phase_span(a0, a0 + w1);
-                let late = phase_span(a0 + w1 + gap, a0 + 3 * w1 + gap);
-                let weight = f64::from(amp[i]).powi(2);
-                se += weight * early / w1 as f64;
-                we += weight;
-                sl += weight * late / (2 * w1) as f64;
-                wl += weight;
-                i += min_sep.max(1);
-            } else {
-                i += 1;
-            }
-        }
-    }
-    if we <= 0.0 || wl <= 0.0 {
-        return None;
-    }
-    let to_hz = f64::from(fs) / (2.0 * std::f64::consts::PI);
-    Some(((se / we * to_hz) as f32, (sl / wl * to_hz) as f32))
 }
 
 /// The rate within `±rel` of `rate` whose harmonic comb collects the most log power in

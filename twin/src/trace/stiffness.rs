@@ -1,8 +1,13 @@
-//! Nonlinear stiffness: ring-downs whose frequency falls as they decay.
+//! Nonlinear stiffness: ring-downs whose frequency falls as they decay, and, where the
+//! impacts vary in strength, starts that are faster the stronger the impact (two close
+//! linear modes beating shift early against late too, but at every strength alike:
+//! [`crate::ringdown`]).
 
 use super::context::{has, TraceContext};
 use super::null::NullTest;
-use crate::residual::{ringdown_frequencies, Candidate, Check, Evidence};
+use super::null::NULL_Z;
+use crate::residual::{Candidate, Check, Evidence};
+use crate::ringdown::{ringdown_frequencies, ringdown_hardening, Hardening};
 use crate::twin::Effect;
 use crate::twin::EffectKind;
 
@@ -35,8 +40,15 @@ pub(super) fn trace(ctx: &TraceContext<'_>, out: &mut Vec<Candidate>) {
                     })
                 })
                 .filter(NullTest::significant);
+            let slope = null.as_ref().and_then(|_| slope_test(ctx, lo, hi, rate));
+            if slope.as_ref().is_some_and(|t| !t.passes) {
+                return;
+            }
             if let Some(null) = null {
                 let mut figures = serde_json::Map::new();
+                if let Some(t) = slope {
+                    figures.insert("hardening".into(), t.figures());
+                }
                 figures.insert(
                     "null_test".into(),
                     null.figures("ringdown_relative_shift_over_model"),
@@ -60,4 +72,42 @@ pub(super) fn trace(ctx: &TraceContext<'_>, out: &mut Vec<Candidate>) {
             }
         }
     }
+}
+
+/// The hardening slope of a record's ring-downs, its test against the model's draws,
+/// and the verdict.
+struct SlopeTest {
+    hardening: Hardening,
+    null: Option<NullTest>,
+    passes: bool,
+}
+
+impl SlopeTest {
+    fn figures(&self) -> serde_json::Value {
+        serde_json::json!({
+            "relative_slope_per_relative_amplitude_squared": self.hardening.slope,
+            "standard_error": self.hardening.se,
+            "null_test": self.null.map(|t| t.figures("hardening_slope")),
+        })
+    }
+}
+
+/// `None` where the record's impacts are too alike in strength (or too few) to read a
+/// slope — the shift test then stands alone; else whether the early frequency rises
+/// with the squared amplitude by [`NULL_Z`] standard errors and, where two or more of
+/// the model's draws read a slope, beyond those draws.
+fn slope_test(ctx: &TraceContext<'_>, lo: f32, hi: f32, rate: f32) -> Option<SlopeTest> {
+    let fs = ctx.cfg.fs_hz;
+    let hardening = ringdown_hardening(ctx.x, fs, lo, hi, rate)?;
+    let null = ctx.nulls.test(hardening.slope as f32, |y| {
+        ringdown_hardening(y, fs, lo, hi, rate).map(|h| h.slope as f32)
+    });
+    let null = (null.draws >= 2).then_some(null);
+    let passes = hardening.slope >= f64::from(NULL_Z) * hardening.se
+        && null.as_ref().is_none_or(NullTest::significant);
+    Some(SlopeTest {
+        hardening,
+        null,
+        passes,
+    })
 }
