@@ -192,7 +192,7 @@ pub fn ringdown_hardening(x: &[f32], fs: f32, lo: f32, hi: f32, rate_hz: f32) ->
     let wsum = w.iter().sum::<f64>();
     let wmean = |v: &[f64]| v.iter().zip(w).map(|(a, b)| a * b).sum::<f64>() / wsum;
     let (s_bar, f_bar) = (wmean(&s), wmean(&f));
-    if !(f_bar > 0.0) {
+    if f_bar.is_nan() || f_bar <= 0.0 {
         return None;
     }
     let sxx: f64 = s.iter().zip(w).map(|(a, b)| b * (a - s_bar).powi(2)).sum();
