@@ -41,7 +41,7 @@ pub(super) fn trace(ctx: &TraceContext<'_>, out: &mut Vec<Candidate>) {
                 })
                 .filter(NullTest::significant);
             let slope = null.as_ref().and_then(|_| slope_test(ctx, lo, hi, rate));
-            if slope.as_ref().is_some_and(|t| !t.passes) {
+            if slope.as_ref().is_some_and(|t| !t.passes()) {
                 return;
             }
             if let Some(null) = null {
@@ -74,15 +74,21 @@ pub(super) fn trace(ctx: &TraceContext<'_>, out: &mut Vec<Candidate>) {
     }
 }
 
-/// The hardening slope of a record's ring-downs, its test against the model's draws,
-/// and the verdict.
+/// The hardening slope of a record's ring-downs and its test against the model's draws.
 struct SlopeTest {
     hardening: Hardening,
     null: Option<NullTest>,
-    passes: bool,
 }
 
 impl SlopeTest {
+    /// Whether the early frequency rises with the squared amplitude by [`NULL_Z`]
+    /// standard errors and, where two or more of the model's draws read a slope,
+    /// beyond those draws.
+    fn passes(&self) -> bool {
+        self.hardening.slope >= f64::from(NULL_Z) * self.hardening.se
+            && self.null.as_ref().is_none_or(NullTest::significant)
+    }
+
     fn figures(&self) -> serde_json::Value {
         serde_json::json!({
             "relative_slope_per_relative_amplitude_squared": self.hardening.slope,
@@ -93,21 +99,15 @@ impl SlopeTest {
 }
 
 /// `None` where the record's impacts are too alike in strength (or too few) to read a
-/// slope — the shift test then stands alone; else whether the early frequency rises
-/// with the squared amplitude by [`NULL_Z`] standard errors and, where two or more of
-/// the model's draws read a slope, beyond those draws.
+/// slope — the shift test then stands alone; else the slope and its test.
 fn slope_test(ctx: &TraceContext<'_>, lo: f32, hi: f32, rate: f32) -> Option<SlopeTest> {
     let fs = ctx.cfg.fs_hz;
     let hardening = ringdown_hardening(ctx.x, fs, lo, hi, rate)?;
     let null = ctx.nulls.test(hardening.slope as f32, |y| {
         ringdown_hardening(y, fs, lo, hi, rate).map(|h| h.slope as f32)
     });
-    let null = (null.draws >= 2).then_some(null);
-    let passes = hardening.slope >= f64::from(NULL_Z) * hardening.se
-        && null.as_ref().is_none_or(NullTest::significant);
     Some(SlopeTest {
         hardening,
-        null,
-        passes,
+        null: (null.draws >= 2).then_some(null),
     })
 }
