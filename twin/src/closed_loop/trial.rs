@@ -206,6 +206,8 @@ struct RefitPlan {
     output_side: bool,
     /// A band of noise or bursts: the background force is freed with it.
     frees_background: bool,
+    /// Bursts: the extra modes' shares are freed with them too.
+    frees_shares: bool,
 }
 
 /// The round a candidate is tried in: the run's setup and the current model with its
@@ -270,6 +272,11 @@ impl Trial<'_> {
                 cand.effect,
                 Effect::UnexplainedBand { .. } | Effect::RandomBursts { .. }
             ),
+            // Bursts ringing a band of their own put a broad peak in the spectrum
+            // there, which the first fit may have taken for a mode of the
+            // structure (a base term): freed, the mode's share can give that
+            // power back to the bursts that carry it.
+            frees_shares: matches!(cand.effect, Effect::RandomBursts { .. }),
         };
         // The current model's gap, once for both starts.
         let before = self.gap(cand, self.y_sim, self.sim_sig);
@@ -343,8 +350,11 @@ impl Trial<'_> {
             return refit_with_drift(m, target, &trial_cfg, fit_cfg.n_sim, plan.drift_known);
         }
         let mask = m.output_side();
-        let held =
-            m.holding(|i, p| !(mask[i] || plan.frees_background && p.name == "ln_background"));
+        let held = m.holding(|i, p| {
+            !(mask[i]
+                || plan.frees_background && p.name == "ln_background"
+                || plan.frees_shares && p.name.starts_with("ln_share2"))
+        });
         let mut r = refit_with_drift(&held, target, &trial_cfg, fit_cfg.n_sim, plan.drift_known)?;
         // The fitted values, the steps of the model as it was.
         r.model = m.with_theta(&r.model.theta());
