@@ -847,30 +847,41 @@ pub fn rhythm_dilution_db(
         - band_carries_defect(x, fs, lo, hi, rate_hz, n)
 }
 
-/// Kurtosis of `x` band-passed to `[lo, hi]` Hz (FFT-domain, over the whole record
-/// zero-padded to a power of two), or `None` for an empty band. A Gaussian band reads
-/// 3; a band carried by isolated bursts reads far more.
+/// Kurtosis of `x` band-passed to `[lo, hi]` Hz ([`band_moments`]), or `None` for an
+/// empty band. A Gaussian band reads 3; a band carried by isolated bursts reads far more.
 pub fn band_kurtosis(x: &[f32], fs: f32, lo: f32, hi: f32) -> Option<f32> {
+    let (m2, m4) = *band_moments(x, fs, &[(lo, hi)])?.first()?;
+    (m2 > 0.0).then(|| (m4 / (m2 * m2)) as f32)
+}
+
+/// The second and fourth moments `(m2, m4)` of `x` band-passed to each of `bands`
+/// (Hz): FFT-domain, over the whole record zero-padded to a power of two, from one
+/// forward transform. `None` where a transform fails.
+pub fn band_moments(x: &[f32], fs: f32, bands: &[(f32, f32)]) -> Option<Vec<(f64, f64)>> {
     let n = x.len().next_power_of_two();
-    let mut z: Vec<Complex32> = x
+    let mut spectrum: Vec<Complex32> = x
         .iter()
         .map(|&v| Complex32::new(v, 0.0))
         .chain(std::iter::repeat(Complex32::ZERO))
         .take(n)
         .collect();
-    fft_in_place(&mut z, Direction::Forward).ok()?;
+    fft_in_place(&mut spectrum, Direction::Forward).ok()?;
     let df = fs / n as f32;
-    for (k, v) in z.iter_mut().enumerate() {
-        let f = k.min(n - k) as f32 * df;
-        if f < lo || f > hi {
-            *v = Complex32::ZERO;
-        }
-    }
-    fft_in_place(&mut z, Direction::Inverse).ok()?;
-    let y = &z[..x.len()];
-    let m2 = y.iter().map(|v| f64::from(v.re).powi(2)).sum::<f64>() / y.len() as f64;
-    let m4 = y.iter().map(|v| f64::from(v.re).powi(4)).sum::<f64>() / y.len() as f64;
-    (m2 > 0.0).then(|| (m4 / (m2 * m2)) as f32)
+    let mut z = vec![Complex32::ZERO; n];
+    bands
+        .iter()
+        .map(|&(lo, hi)| {
+            for (k, (out, &v)) in z.iter_mut().zip(&spectrum).enumerate() {
+                let f = k.min(n - k) as f32 * df;
+                *out = if f < lo || f > hi { Complex32::ZERO } else { v };
+            }
+            fft_in_place(&mut z, Direction::Inverse).ok()?;
+            let y = &z[..x.len()];
+            let m2 = y.iter().map(|v| f64::from(v.re).powi(2)).sum::<f64>() / y.len() as f64;
+            let m4 = y.iter().map(|v| f64::from(v.re).powi(4)).sum::<f64>() / y.len() as f64;
+            Some((m2, m4))
+        })
+        .collect()
 }
 
 /// The envelope of `x` band-passed to `[lo, hi]` Hz (the core's analytic-signal

@@ -329,16 +329,25 @@ impl TwinModel {
     }
 
     /// Natural frequencies of the modes the model has: the base mode, then every
-    /// extra resonance, Hz.
+    /// extra resonance, Hz ([`Self::modes`]).
     pub fn mode_frequencies(&self) -> Vec<f64> {
+        self.modes().into_iter().map(|(f, _)| f).collect()
+    }
+
+    /// Natural frequency (Hz, at most `MODE_MAX_REL_FS`·fs, as the modes are
+    /// simulated) and damping ratio of each mode the model has: the base mode first
+    /// (never absent), then every extra resonance.
+    pub fn modes(&self) -> Vec<(f64, f64)> {
         let top = MODE_MAX_REL_FS * f64::from(self.op.fs_hz);
-        let mut f = vec![self.get("ln_fn_hz").map_or(3000.0, f64::exp).min(top)];
-        for (_, p) in self.effects_of(EffectKind::ExtraResonance) {
-            if let Some(first) = p.first() {
-                f.push(first.value.exp().min(top));
-            }
-        }
-        f
+        let base = (
+            self.get("ln_fn_hz").map_or(3000.0, f64::exp).min(top),
+            self.get("ln_zeta").map_or(0.05, f64::exp),
+        );
+        let extra = self
+            .effects_of(EffectKind::ExtraResonance)
+            .into_iter()
+            .filter_map(|(_, p)| Some((p.first()?.value.exp().min(top), p.get(1)?.value.exp())));
+        std::iter::once(base).chain(extra).collect()
     }
 
     /// The mean overlap `λ·τ` of the last [`Effect::RandomBursts`] (rate × decay time

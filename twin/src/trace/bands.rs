@@ -6,13 +6,12 @@ use super::context::{
     MAX_UNEXPLAINED_BANDS, MIN_LOG_KURTOSIS_EXCESS,
 };
 use crate::residual::{
-    band_carries_defect, band_kurtosis, event_rhythm, rhythm_dilution_db, Candidate, Check,
-    Component, ResidualAnalysis, NARROW_BAND_MAX_HZ,
+    band_carries_defect, band_kurtosis, band_moments, event_rhythm, rhythm_dilution_db, Candidate,
+    Check, Component, ResidualAnalysis, NARROW_BAND_MAX_HZ,
 };
 use crate::residual::{Evidence, Kind};
 use crate::twin::EffectKind;
 use crate::twin::{Effect, TwinModel};
-use pumptwin_core::fft::{fft_in_place, Complex32, Direction};
 
 /// Offer the two largest unmodelled bands' readings: a mode the impacts excite, a
 /// band of noise at the sensor, or bursts at random times.
@@ -290,8 +289,7 @@ pub(super) fn trace_random_impacts(ctx: &TraceContext<'_>, out: &mut Vec<Candida
             // own, or one the first fit took for the structure's): the scan's band.
             let (fn_hz, width_hz) = most_impulsive_band(ctx.x, ctx.sim, fs, lo, hi).map_or_else(
                 || {
-                    let fn_hz = model.get("ln_fn_hz").map_or(3000.0, f64::exp);
-                    let zeta = model.get("ln_zeta").map_or(0.05, f64::exp);
+                    let (fn_hz, zeta) = model.modes()[0];
                     (fn_hz, 2.0 * zeta * fn_hz)
                 },
                 |band| ring_in_band(model, band),
@@ -376,51 +374,22 @@ fn most_impulsive_band(x: &[f32], sim: &[f32], fs: f32, lo: f32, hi: f32) -> Opt
 /// (a casing mode of the bursts' own).
 fn ring_in_band(model: &TwinModel, (centre, width): (f32, f32)) -> (f64, f64) {
     let (c, half) = (f64::from(centre), 0.5 * f64::from(width));
-    let base = model
-        .get("ln_fn_hz")
-        .map(f64::exp)
-        .zip(model.get("ln_zeta").map(f64::exp));
-    let extra = model
-        .effects_of(EffectKind::ExtraResonance)
+    model
+        .modes()
         .into_iter()
-        .filter_map(|(_, p)| Some((p.first()?.value.exp(), p.get(1)?.value.exp())));
-    base.into_iter()
-        .chain(extra)
         .filter(|(f, _)| (f - c).abs() <= half)
         .min_by(|a, b| (a.0 - c).abs().total_cmp(&(b.0 - c).abs()))
         .map_or((c, half), |(f, zeta)| (f, 2.0 * zeta * f))
 }
 
-/// The fourth cumulant `m4 − 3·m2²` of `x` band-passed to each of `bands` (Hz), from
-/// one transform of the record. `None` for a non-finite sample.
+/// The fourth cumulant `m4 − 3·m2²` of `x` band-passed to each of `bands` (Hz)
+/// ([`band_moments`]). `None` for a non-finite sample.
 fn band_cumulants(x: &[f32], fs: f32, bands: &[(f32, f32)]) -> Option<Vec<f64>> {
     if x.is_empty() || x.iter().any(|v| !v.is_finite()) {
         return None;
     }
-    let n = x.len().next_power_of_two();
-    let mut spectrum: Vec<Complex32> = x
-        .iter()
-        .map(|&v| Complex32::new(v, 0.0))
-        .chain(std::iter::repeat(Complex32::ZERO))
-        .take(n)
-        .collect();
-    fft_in_place(&mut spectrum, Direction::Forward).ok()?;
-    let df = fs / n as f32;
-    let mut z = vec![Complex32::ZERO; n];
-    bands
-        .iter()
-        .map(|&(lo, hi)| {
-            for (k, (out, &v)) in z.iter_mut().zip(&spectrum).enumerate() {
-                let f = k.min(n - k) as f32 * df;
-                *out = if f < lo || f > hi { Complex32::ZERO } else { v };
-            }
-            fft_in_place(&mut z, Direction::Inverse).ok()?;
-            let y = &z[..x.len()];
-            let m2 = y.iter().map(|v| f64::from(v.re).powi(2)).sum::<f64>() / y.len() as f64;
-            let m4 = y.iter().map(|v| f64::from(v.re).powi(4)).sum::<f64>() / y.len() as f64;
-            Some(m4 - 3.0 * m2 * m2)
-        })
-        .collect()
+    let moments = band_moments(x, fs, bands)?;
+    Some(moments.iter().map(|(m2, m4)| m4 - 3.0 * m2 * m2).collect())
 }
 
 #[cfg(test)]
