@@ -14,7 +14,8 @@
 #
 # Corpora grow in fuzz/corpus/TARGET (seeded from fuzz/seeds/TARGET, both kept out of
 # git but the seeds); a crashing input lands in fuzz/artifacts/TARGET/ and the script
-# exits non-zero. One process, one job: the machine has two cores.
+# exits non-zero. Targets run FUZZ_JOBS at a time (default 2, the machine's cores),
+# each a single libFuzzer process with its whole time.
 set -euo pipefail
 cd "$(dirname "$0")/../fuzz"
 
@@ -23,6 +24,7 @@ TARGETS=("$@")
 [ ${#TARGETS[@]} -eq 0 ] && TARGETS=("${ALL[@]}")
 SECONDS_EACH="${FUZZ_SECONDS:-30}"
 RUNS="${FUZZ_RUNS:--1}"
+JOBS="${FUZZ_JOBS:-2}"
 HOST=x86_64-unknown-linux-gnu
 export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$(pwd)/target}"
 export RUSTFLAGS="-Cpasses=sancov-module -Cllvm-args=-sanitizer-coverage-level=4 \
@@ -33,10 +35,9 @@ bins=()
 for t in "${TARGETS[@]}"; do bins+=(--bin "$t"); done
 nice -n 19 cargo build --release --target "$HOST" "${bins[@]}"
 
-status=0
-for t in "${TARGETS[@]}"; do
-    corpus="corpus/$t"
-    max_len=8192
+# One target's run; non-zero on a finding (its log's tail printed).
+fuzz_one() {
+    local t=$1 corpus="corpus/$1" max_len=8192 log rc execs speed crashes
     [ "$t" = model_file ] && max_len=16384  # the shipped model is 10.5 KB
     mkdir -p "$corpus" "artifacts/$t"
     log="${FUZZ_LOG_DIR:-/tmp}/pumptwin-fuzz-$t.log"
@@ -50,10 +51,19 @@ for t in "${TARGETS[@]}"; do
     execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1)
     speed=$(sed -n 's/^stat::average_exec_per_sec: *//p' "$log" | tail -1)
     crashes=$(find "artifacts/$t" -type f | wc -l)
-    echo "    executions ${execs:-?}, ${speed:-?} exec/s, exit $rc, artifacts $crashes"
+    echo "    $t: executions ${execs:-?}, ${speed:-?} exec/s, exit $rc, artifacts $crashes"
     if [ "$rc" -ne 0 ] || [ "$crashes" -ne 0 ]; then
         tail -40 "$log"
-        status=1
+        return 1
     fi
+}
+
+# FUZZ_JOBS targets at a time (default 2, one per core: each fuzzer is one process
+# on one core), each with its whole time.
+status=0
+for t in "${TARGETS[@]}"; do
+    while [ "$(jobs -rp | wc -l)" -ge "$JOBS" ]; do wait -n || status=1; done
+    fuzz_one "$t" &
 done
+while [ "$(jobs -rp | wc -l)" -gt 0 ]; do wait -n || status=1; done
 exit "$status"
