@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Live SocketCAN end to end, in a QEMU VM with vcan0 (run-vm.sh):
 #   canplayer (can-utils: a peer we did not write) plays models/demo.log onto vcan0
-#   at its recorded pace, while the static pumptwin-edge reads vcan0 live
+#   at its recorded pace, while pumptwin-edge reads vcan0 live
 #   (--can vcan0 --model … --publish-id 0x7E0) and candump records the diagnosis
 #   frames it publishes.
 # Outside the VM the same binary replays the same log (--replay). Pass when the live
@@ -10,27 +10,24 @@
 # window's class.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-rustup target add x86_64-unknown-linux-musl >/dev/null 2>&1 || true
-# C code in the dependency tree (ring, under the MQTT client's TLS) needs a musl C
-# compiler for the static build: Debian's musl-tools.
-if ! command -v musl-gcc >/dev/null; then
-    apt-get update -qq
-    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq musl-tools >/dev/null
-fi
-export CC_x86_64_unknown_linux_musl=musl-gcc
-cargo build --release -p pumptwin-edge --target x86_64-unknown-linux-musl
-bin=target/x86_64-unknown-linux-musl/release/pumptwin-edge
+# The host's release build (the reference of scripts/arm-edge.sh, built once for
+# both), run in the guest with its shared libraries beside it: the guest has the
+# glibc loader and libc that can-utils need (build-initramfs.sh), not libgcc_s/libm.
+cargo build --release -p pumptwin-edge
+bin=target/release/pumptwin-edge
 work=target/vcan-vm/edge-live
 rm -rf "$work"
 mkdir -p "$work/payload"
 cp "$bin" models/demo.log models/cwru-sensors.toml models/dsstgat-cwru-tb.ptm "$work/payload/"
+mkdir -p "$work/payload/lib"
+ldd "$bin" | awk '/=> \// { print $3 }' | xargs -r cp -L -t "$work/payload/lib/"
 cat > "$work/payload/run" <<'EOF'
 #!/bin/sh
 set -u
 cd /payload
 # Room for the backlog: under TCG emulation the gateway runs ~10x slower than the bus.
 echo 16777216 > /proc/sys/net/core/rmem_max
-./pumptwin-edge --can vcan0 --sensors cwru-sensors.toml --model dsstgat-cwru-tb.ptm \
+LD_LIBRARY_PATH=/payload/lib ./pumptwin-edge --can vcan0 --sensors cwru-sensors.toml --model dsstgat-cwru-tb.ptm \
     --publish-id 0x7E0 --idle-exit 4 --out /tmp/live.jsonl 2>/tmp/edge.err &
 edge=$!
 candump -L vcan0,7E0:7FF > /tmp/published.log &
