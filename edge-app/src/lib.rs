@@ -18,7 +18,7 @@
 //! | [`diagnosis`] | the extension point for diagnosers |
 //! | [`network`] | the int8 DS-STGAT network, read from a model file (`--model`), as a diagnoser |
 //! | [`live`] | live SocketCAN source (`--can IFACE`, reconnecting) and the `--publish-id` bus writer |
-//! | [`mqtt`] | telemetry to an MQTT broker, QoS 1, with an on-disk store-and-forward queue |
+//! | `mqtt` | telemetry to an MQTT broker, QoS 1, with an on-disk store-and-forward queue (feature `mqtt`, on by default) |
 //! | [`ops`] | `--config FILE.toml` for every flag, Prometheus `/metrics` endpoint |
 //! | [`pace`] | replay at full speed or following the log's timestamps |
 //! | [`gateway`] | the run loop |
@@ -42,6 +42,7 @@ pub mod explain;
 pub mod gateway;
 pub mod health;
 pub mod live;
+#[cfg(feature = "mqtt")]
 pub mod mqtt;
 pub mod network;
 pub mod ops;
