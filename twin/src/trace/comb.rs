@@ -1,7 +1,7 @@
 //! A washed-out defect comb: slip (random impact timing) or a speed that drifts.
 
 use super::context::{has, TraceContext};
-use crate::residual::{comb_contrast, envelope_line, Candidate, Check, Evidence};
+use crate::residual::{comb_contrast, envelope_comb_rate, Candidate, Check, Evidence};
 use crate::signature::{block_within, MIN_BLOCK};
 use crate::twin::Effect;
 use crate::twin::EffectKind;
@@ -23,9 +23,9 @@ const DRIFT_MIN_BLOCKS: usize = 4;
 /// block to block makes a false drift claim on 1 % of records.
 const T_99: [f64; 5] = [9.925, 5.841, 4.604, 4.032, 3.707];
 
-/// The defect rate's linear trend over the record: the envelope line at `f` Hz read
-/// in up to [`DRIFT_BLOCKS`] consecutive blocks, a straight line fitted through the
-/// block rates against time. Returns the slope relative to `f` (per second) and its
+/// The defect rate's linear trend over the record: the rate of the envelope comb
+/// near `f` Hz read in up to [`DRIFT_BLOCKS`] consecutive blocks, a straight line
+/// fitted through the block rates against time. Returns the slope relative to `f` (per second) and its
 /// t statistic (slope over its standard error from the line's residuals) and the
 /// degrees of freedom behind it, or `None` where fewer than [`DRIFT_MIN_BLOCKS`]
 /// blocks show the line.
@@ -46,7 +46,7 @@ fn rate_trend(
         .filter_map(|b| {
             let seg = &x[b * len..(b + 1) * len];
             let t = (b as f64 + 0.5) * len as f64 / f64::from(fs);
-            envelope_line(seg, fs, band, f, n).map(|r| (t, f64::from(r) / f64::from(f)))
+            envelope_comb_rate(seg, fs, band, f, n).map(|r| (t, f64::from(r) / f64::from(f)))
         })
         .collect();
     let k = points.len();
@@ -95,18 +95,17 @@ pub(super) fn trace(ctx: &TraceContext<'_>, out: &mut Vec<Candidate>) {
                     let band = ctx.cfg.env_band;
                     let half = ctx.x.len() / 2;
                     let fd = rate as f32;
-                    let h = 3.0;
                     let n = block_within(ctx.cfg.env_n, half, 1);
-                    let f1 = envelope_line(&ctx.x[..half], fs, band, h * fd, n);
-                    let f2 = envelope_line(&ctx.x[half..], fs, band, h * fd, n);
+                    let f1 = envelope_comb_rate(&ctx.x[..half], fs, band, fd, n);
+                    let f2 = envelope_comb_rate(&ctx.x[half..], fs, band, fd, n);
                     let shift = match (f1, f2) {
-                        (Some(a), Some(b)) => (b - a) / (h * fd),
+                        (Some(a), Some(b)) => (b - a) / fd,
                         _ => 0.0,
                     };
                     // Mean defect rate over the record, relative to the kinematic one.
                     let kin = f64::from(model.op.freqs.impact_rate(loc));
                     let mean_factor = match (f1, f2) {
-                        (Some(a), Some(b)) => 0.5 * f64::from(a + b) / (3.0 * kin) - 1.0,
+                        (Some(a), Some(b)) => 0.5 * f64::from(a + b) / kin - 1.0,
                         _ => model.get("rate_factor").unwrap_or(0.0),
                     };
                     let mut figures = serde_json::Map::new();
@@ -126,7 +125,7 @@ pub(super) fn trace(ctx: &TraceContext<'_>, out: &mut Vec<Candidate>) {
                     let half_s = (half as f64 / f64::from(fs)).max(1e-3);
                     // A drift must move the rate steadily: its trend over the record's
                     // blocks beyond what the rate's scatter from block to block allows.
-                    let trend = rate_trend(ctx.x, fs, band, h * fd, ctx.cfg.env_n);
+                    let trend = rate_trend(ctx.x, fs, band, fd, ctx.cfg.env_n);
                     let steady = match trend {
                         Some((_, t, dof)) => t.abs() < T_99[dof.clamp(2, 6) - 2],
                         None => true,
