@@ -24,11 +24,11 @@ const DRIFT_MIN_BLOCKS: usize = 4;
 const T_99: [f64; 5] = [9.925, 5.841, 4.604, 4.032, 3.707];
 
 /// The defect rate's linear trend over the record: the rate of the envelope comb
-/// near `f` Hz read in up to [`DRIFT_BLOCKS`] consecutive blocks, a straight line
-/// fitted through the block rates against time. Returns the slope relative to `f` (per second) and its
-/// t statistic (slope over its standard error from the line's residuals) and the
-/// degrees of freedom behind it, or `None` where fewer than [`DRIFT_MIN_BLOCKS`]
-/// blocks show the line.
+/// near `f` Hz ([`envelope_comb_rate`]) read in up to [`DRIFT_BLOCKS`] consecutive
+/// blocks, a straight line fitted through the block rates against time. Returns the
+/// slope relative to `f` (per second), its t statistic (slope over its standard
+/// error from the line's residuals) and the degrees of freedom behind it, or `None`
+/// where fewer than [`DRIFT_MIN_BLOCKS`] blocks show the comb.
 fn rate_trend(
     x: &[f32],
     fs: f32,
