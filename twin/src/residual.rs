@@ -1019,18 +1019,19 @@ pub(crate) fn envelope_comb_rate(
     rate: f32,
     n: usize,
 ) -> Option<f32> {
+    const REL: f32 = 0.03;
     let (spec, df) = band_envelope_spectrum(x, fs, band.lo_hz, band.hi_hz, n)?;
     let top = (0.9 * (band.hi_hz - band.lo_hz)).min(0.5 * fs);
-    if !(rate > 0.0 && rate * 1.03 < top) {
+    if !(rate > 0.0 && rate * (1.0 + REL) < top) {
         return None;
     }
-    let db: Vec<f32> = spec.iter().map(|&v| 10.0 * v.max(1e-30).log10()).collect();
     let comb = Comb {
         top_hz: f64::from(top),
         harmonics: RATE_COMB_HARMONICS,
         step: 1e-4,
     };
-    Some(comb.best_rate(&db, f64::from(df), f64::from(rate), 0.03) as f32)
+    let db = to_db(&spec, &spec);
+    Some(comb.best_rate(&db, f64::from(df), f64::from(rate), f64::from(REL)) as f32)
 }
 
 #[cfg(test)]

@@ -660,7 +660,10 @@ mod tests {
             for d in &case.injected {
                 let on_impacts = matches!(
                     d.injection,
-                    Injection::SpeedDrift { .. } | Injection::Compound { .. }
+                    Injection::Modulation { .. }
+                        | Injection::Compound { .. }
+                        | Injection::SpeedDrift { .. }
+                        | Injection::Duffing { .. }
                 );
                 assert!(
                     !on_impacts || case.base.defect.is_some(),
