@@ -1035,7 +1035,7 @@ pub(crate) fn envelope_comb_rate(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     /// A Gaussian band reads a kurtosis of 3, a band carried by isolated ring-downs far
@@ -1097,7 +1097,7 @@ mod tests {
     }
 
     /// `x` plus a ring-down at 2.3 kHz of amplitude `a` at each of `times` (s).
-    fn ring(x: &mut [f32], fs: f32, times: impl Iterator<Item = (f32, f32)>) {
+    pub(crate) fn ring(x: &mut [f32], fs: f32, times: impl Iterator<Item = (f32, f32)>) {
         for (t0, a) in times {
             let i0 = (t0 * fs) as usize;
             for (j, v) in x.iter_mut().skip(i0).take(300).enumerate() {
