@@ -7,11 +7,12 @@
 //! residual `d(f) = measured − model`: `d > median(d) + max(6 dB, 5·1.4826·MAD(d))` (5σ over some 2000 bins).
 //! Narrow runs (≤ 4 bins, a Hann main lobe) are lines; wider runs are bands.
 
-use super::ringdown::ringdown_frequencies;
+use super::ringdown::{ringdown_frequencies, ringdown_hardening};
 use super::signature::{to_db, welch, Signature, SignatureConfig};
 use super::twin::{Effect, TwinModel};
 use pumptwin_core::features::{envelope, EnvelopeBand};
 use pumptwin_core::fft::{fft_in_place, Complex32, Direction};
+use std::ops::Range;
 
 /// Minimum excess of a significant component, dB.
 pub const MIN_EXCESS_DB: f32 = 6.0;
@@ -164,6 +165,16 @@ pub enum Check {
         /// Impact rate, Hz.
         rate: f32,
     },
+    /// Hardening slope (the ring-downs' early frequency against their squared
+    /// amplitude, [`ringdown_hardening`]) excess over the model's.
+    Hardening {
+        /// Band, Hz.
+        lo: f32,
+        /// Band, Hz.
+        hi: f32,
+        /// Impact rate, Hz.
+        rate: f32,
+    },
 }
 
 /// How far the model is from explaining a candidate's evidence: larger is worse, 0 or
@@ -179,6 +190,7 @@ pub fn evidence_gap(
     meas_env_db: &[f32],
     sim_env_db: &[f32],
     cfg: &SignatureConfig,
+    holds: &[Range<usize>],
 ) -> f32 {
     match *check {
         Check::Lines => {
@@ -221,10 +233,19 @@ pub fn evidence_gap(
         }
         Check::Ringdown { lo, hi, rate } => {
             match (
-                ringdown_frequencies(x, cfg.fs_hz, lo, hi, rate),
-                ringdown_frequencies(sim, cfg.fs_hz, lo, hi, rate),
+                ringdown_frequencies(x, cfg.fs_hz, lo, hi, rate, holds),
+                ringdown_frequencies(sim, cfg.fs_hz, lo, hi, rate, holds),
             ) {
                 (Some((a, b)), Some((c, d))) => 100.0 * ((a / b - 1.0) - (c / d - 1.0)),
+                _ => 0.0,
+            }
+        }
+        Check::Hardening { lo, hi, rate } => {
+            match (
+                ringdown_hardening(x, cfg.fs_hz, lo, hi, rate, holds),
+                ringdown_hardening(sim, cfg.fs_hz, lo, hi, rate, holds),
+            ) {
+                (Some(a), Some(b)) => (100.0 * (a.slope - b.slope)) as f32,
                 _ => 0.0,
             }
         }

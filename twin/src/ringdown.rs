@@ -12,6 +12,7 @@
 
 use super::signature::block_within;
 use pumptwin_core::fft::{fft_in_place, Complex32, Direction};
+use std::ops::Range;
 
 /// Least ring-downs for a hardening slope: with fewer the slope's standard error is
 /// read from too few residuals to be trusted.
@@ -54,8 +55,18 @@ impl Ringdowns {
 
 /// Every ring-down of `x` in the band `[lo, hi]` Hz: starts at local envelope maxima
 /// above 30 % of the block's 99th percentile, at least half an impact period apart
-/// (`rate_hz` is the impact rate). `None` when the record is shorter than one block.
-pub fn ringdowns(x: &[f32], fs: f32, lo: f32, hi: f32, rate_hz: f32) -> Option<Ringdowns> {
+/// (`rate_hz` is the impact rate). A block that overlaps one of `holds` (sample ranges
+/// where the acquisition held one value: a dropout) is not read: the steps into and out
+/// of a hold ring through the whole band-passed block, at no mode's frequency and with
+/// no impact's strength. `None` when the record is shorter than one block.
+pub fn ringdowns(
+    x: &[f32],
+    fs: f32,
+    lo: f32,
+    hi: f32,
+    rate_hz: f32,
+    holds: &[Range<usize>],
+) -> Option<Ringdowns> {
     let n = block_within(8192, x.len(), 1);
     if x.len() < n {
         return None;
@@ -68,6 +79,9 @@ pub fn ringdowns(x: &[f32], fs: f32, lo: f32, hi: f32, rate_hz: f32) -> Option<R
     let min_sep = (0.5 * fs / rate_hz.max(1.0)) as usize;
     let mut list = Vec::new();
     for start in (0..=x.len() - n).step_by(n) {
+        if holds.iter().any(|h| h.start < start + n && h.end > start) {
+            continue;
+        }
         let seg = &x[start..start + n];
         analytic_in_band(seg, fs, lo, hi, &mut scratch)?;
         let amp: Vec<f32> = scratch.iter().map(|z| z.norm()).collect();
@@ -139,8 +153,9 @@ pub fn ringdown_frequencies(
     lo: f32,
     hi: f32,
     rate_hz: f32,
+    holds: &[Range<usize>],
 ) -> Option<(f32, f32)> {
-    let r = ringdowns(x, fs, lo, hi, rate_hz)?;
+    let r = ringdowns(x, fs, lo, hi, rate_hz, holds)?;
     let w1 = r.early_len;
     let (mut se, mut we, mut sl, mut wl) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
     for d in &r.list {
@@ -164,6 +179,12 @@ pub struct Hardening {
     pub slope: f64,
     /// Its standard error (heteroskedasticity-robust, White 1980).
     pub se: f64,
+    /// The same for each ring-down's early frequency less its late one (relative to
+    /// the mean early frequency): a hardening mode slows as it decays, the more the
+    /// stronger it started.
+    pub shift_slope: f64,
+    /// Its standard error.
+    pub shift_se: f64,
 }
 
 /// The early frequency of each ring-down regressed on its squared amplitude relative
@@ -171,8 +192,15 @@ pub struct Hardening {
 /// over less noise); `None` with fewer than [`MIN_RINGDOWNS`] ring-downs or a spread of
 /// strengths under [`MIN_STRENGTH_SPREAD`] (the slope is then undetermined, and only
 /// the early-versus-late shift can be read).
-pub fn ringdown_hardening(x: &[f32], fs: f32, lo: f32, hi: f32, rate_hz: f32) -> Option<Hardening> {
-    let r = ringdowns(x, fs, lo, hi, rate_hz)?;
+pub fn ringdown_hardening(
+    x: &[f32],
+    fs: f32,
+    lo: f32,
+    hi: f32,
+    rate_hz: f32,
+    holds: &[Range<usize>],
+) -> Option<Hardening> {
+    let r = ringdowns(x, fs, lo, hi, rate_hz, holds)?;
     let n = r.list.len();
     if n < MIN_RINGDOWNS {
         return None;
@@ -187,38 +215,52 @@ pub fn ringdown_hardening(x: &[f32], fs: f32, lo: f32, hi: f32, rate_hz: f32) ->
     if spread < MIN_STRENGTH_SPREAD {
         return None;
     }
-    let f: Vec<f64> = r.list.iter().map(|d| r.early_hz(d)).collect();
-    let w = &sq;
-    let wsum = w.iter().sum::<f64>();
-    let wmean = |v: &[f64]| v.iter().zip(w).map(|(a, b)| a * b).sum::<f64>() / wsum;
-    let (s_bar, f_bar) = (wmean(&s), wmean(&f));
+    let early: Vec<f64> = r.list.iter().map(|d| r.early_hz(d)).collect();
+    let wsum = sq.iter().sum::<f64>();
+    let f_bar = early.iter().zip(&sq).map(|(a, b)| a * b).sum::<f64>() / wsum;
     if f_bar.is_nan() || f_bar <= 0.0 {
         return None;
     }
-    let sxx: f64 = s.iter().zip(w).map(|(a, b)| b * (a - s_bar).powi(2)).sum();
-    let sxy: f64 = s
+    let shift: Vec<f64> = r
+        .list
         .iter()
-        .zip(&f)
-        .zip(w)
-        .map(|((a, c), b)| b * (a - s_bar) * (c - f_bar))
-        .sum();
-    if sxx <= 0.0 {
+        .zip(&early)
+        .map(|(d, e)| e - d.late_span / (2 * r.early_len) as f64 * r.to_hz)
+        .collect();
+    let (slope, se) = weighted_slope(&s, &early, &sq)?;
+    let (shift_slope, shift_se) = weighted_slope(&s, &shift, &sq)?;
+    Some(Hardening {
+        slope: slope / f_bar,
+        se: se / f_bar,
+        shift_slope: shift_slope / f_bar,
+        shift_se: shift_se / f_bar,
+    })
+}
+
+/// The weighted least-squares slope of `y` on `s` (weights `w`) and its
+/// heteroskedasticity-robust standard error; `None` where `s` has no weighted spread.
+fn weighted_slope(s: &[f64], y: &[f64], w: &[f64]) -> Option<(f64, f64)> {
+    let wsum = w.iter().sum::<f64>();
+    let wmean = |v: &[f64]| v.iter().zip(w).map(|(a, b)| a * b).sum::<f64>() / wsum;
+    let (s_bar, y_bar) = (wmean(s), wmean(y));
+    let sxx: f64 = s.iter().zip(w).map(|(a, b)| b * (a - s_bar).powi(2)).sum();
+    if !(sxx > 0.0) {
         return None;
     }
+    let sxy: f64 = s
+        .iter()
+        .zip(y)
+        .zip(w)
+        .map(|((a, c), b)| b * (a - s_bar) * (c - y_bar))
+        .sum();
     let b = sxy / sxx;
     let meat: f64 = s
         .iter()
-        .zip(&f)
+        .zip(y)
         .zip(w)
-        .map(|((a, c), wt)| {
-            let e = c - f_bar - b * (a - s_bar);
-            (wt * (a - s_bar) * e).powi(2)
-        })
+        .map(|((a, c), wt)| (wt * (a - s_bar) * (c - y_bar - b * (a - s_bar))).powi(2))
         .sum();
-    Some(Hardening {
-        slope: b / f_bar,
-        se: meat.sqrt() / sxx / f_bar,
-    })
+    Some((b, meat.sqrt() / sxx))
 }
 
 #[cfg(test)]
@@ -278,17 +320,44 @@ mod tests {
             env * ((w * t).sin() + 0.6 * (1.03 * w * t).sin())
         });
         let (lo, hi) = (0.75 * F0 as f32, 1.25 * F0 as f32);
-        let h = ringdown_hardening(&duffing, FS, lo, hi, RATE).expect("a slope");
+        let h = ringdown_hardening(&duffing, FS, lo, hi, RATE, &[]).expect("a slope");
         assert!(h.slope > 10.0 * h.se && h.slope > 0.005, "{h:?}");
-        let b = ringdown_hardening(&beating, FS, lo, hi, RATE).expect("a slope");
+        let b = ringdown_hardening(&beating, FS, lo, hi, RATE, &[]).expect("a slope");
         assert!(b.slope.abs() < 3.0 * b.se.max(1e-4), "{b:?}");
+        // The hardening ring-down slows as it decays, the more the stronger it
+        // started; the beating one by as much at every strength.
+        assert!(h.shift_slope > 3.0 * h.shift_se, "{h:?}");
+        assert!(b.shift_slope.abs() < 3.0 * b.shift_se.max(1e-4), "{b:?}");
         // Both shift early against late: the shift alone does not tell them apart.
         let shift = |x: &[f32]| {
-            let (e, l) = ringdown_frequencies(x, FS, lo, hi, RATE).unwrap();
+            let (e, l) = ringdown_frequencies(x, FS, lo, hi, RATE, &[]).unwrap();
             e / l - 1.0
         };
         assert!(shift(&duffing) > 0.01, "{}", shift(&duffing));
         assert!(shift(&beating).abs() > 0.002, "{}", shift(&beating));
+    }
+
+    /// A block that holds a dropout is not read; the others are read as before.
+    #[test]
+    fn a_held_block_is_not_read() {
+        let mut x =
+            impacts(|t, a| a * (-DECAY * t).exp() * (2.0 * std::f64::consts::PI * F0 * t).sin());
+        let all = ringdowns(&x, FS, 2250.0, 3750.0, RATE, &[]).unwrap();
+        let n = block_within(8192, x.len(), 1);
+        let hold = n + 100..n + 600;
+        let v = x[hold.start];
+        x[hold.clone()].fill(v);
+        let read = ringdowns(&x, FS, 2250.0, 3750.0, RATE, &[hold]).unwrap();
+        let blocks = x.len() / n;
+        assert!(blocks >= 3, "{blocks}");
+        let per_block = all.list.len() / blocks;
+        // One block's ring-downs are left out, give or take the ones at its edges.
+        let (kept, had) = (read.list.len(), all.list.len());
+        assert!(
+            kept + per_block / 2 <= had && kept + 3 * per_block / 2 >= had,
+            "{kept} of {had}"
+        );
+        assert_eq!(read.list[..per_block / 2], all.list[..per_block / 2]);
     }
 
     #[test]
@@ -299,7 +368,7 @@ mod tests {
                 ((-DECAY * t).exp() * (2.0 * std::f64::consts::PI * F0 * t).sin()) as f32
             })
             .collect();
-        assert_eq!(ringdown_hardening(&x, FS, 2250.0, 3750.0, RATE), None);
-        assert!(ringdowns(&x[..100], FS, 2250.0, 3750.0, RATE).is_none());
+        assert_eq!(ringdown_hardening(&x, FS, 2250.0, 3750.0, RATE, &[]), None);
+        assert!(ringdowns(&x[..100], FS, 2250.0, 3750.0, RATE, &[]).is_none());
     }
 }

@@ -391,6 +391,7 @@ impl Trial<'_> {
             &t.env_db,
             &to_db(&sig.env, &t.meas.env),
             &self.s.sig_res,
+            &self.s.holds,
         )
     }
 

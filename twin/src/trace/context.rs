@@ -6,6 +6,7 @@ use crate::residual::{Component, Evidence};
 use crate::signature::SignatureConfig;
 use crate::twin::EffectKind;
 use crate::twin::{Effect, TwinModel};
+use std::ops::Range;
 
 /// What the tracer is told about the measurement.
 #[derive(Debug, Clone)]
@@ -25,6 +26,9 @@ pub struct TraceContext<'a> {
     /// The current model simulated again with other seeds: the null a statistic's
     /// threshold is read from ([`super::null`]).
     pub nulls: &'a NullDraws<'a>,
+    /// Sample ranges where the acquisition held one value (dropouts), in `x` and in
+    /// the simulations alike.
+    pub holds: &'a [Range<usize>],
 }
 
 /// Evidence with no extra figures.

@@ -137,6 +137,17 @@ impl NullTest {
         self.z() >= NULL_Z
     }
 
+    /// The test with the null's spread no narrower than `sd`: a statistic whose own
+    /// standard error, read off the record, is wider than the draws' spread scatters
+    /// that much under the null as well (the record holds something the model's draws
+    /// lack, and the draws alone would call its noise significant).
+    pub fn widened(self, sd: f32) -> Self {
+        Self {
+            sd: self.sd.max(sd),
+            ..self
+        }
+    }
+
     /// The one-sided Gaussian p-value of `z`.
     pub fn p_value(&self) -> f64 {
         upper_tail(f64::from(self.z()))

@@ -11,103 +11,174 @@ use crate::ringdown::{ringdown_frequencies, ringdown_hardening, Hardening};
 use crate::twin::Effect;
 use crate::twin::EffectKind;
 
-/// Offer nonlinear stiffness where ring-downs start faster than they end, more
-/// than the model's do.
+/// Offer nonlinear stiffness where the ring-downs' early frequency rises with the
+/// impact's strength beyond what the model's own realizations show (the hardening
+/// slope, [`ringdown_hardening`]) — the one reading that ties the shift to the
+/// amplitude. Where the impacts are too alike in strength for a slope, the early-
+/// versus-late shift alone is read instead (beyond 1 % and the model's draws).
+///
+/// The slope decides first because the shift is the weaker witness: on the
+/// benchmark's development seed 3, the 23 records with a hardening first mode, drawn
+/// again without it, show early-versus-late shifts of −8 to +8 % from their linear
+/// modes alone (bands beating, leakage of the band-pass) and the stiffening moves that
+/// figure by under 1 % on most; the slope of the same records moves by several of its
+/// standard errors on most (a diagnostic run kept with the eighteenth session's note).
+/// The shift gated the slope until then: 0 of 23 found, stiffness offered on 3. With
+/// the slopes first ([`SlopeTest::passes`]) it is found on 1 of the 23: most offers
+/// are refitted to a stiffness whose own ring-downs do not reproduce the record's slope
+/// (rejected, their evidence unexplained). Starting the stiffness where a render's
+/// slope meets the record's did not help there (dev seed 3, cases 187, 252, 253: the
+/// refit moved it back, or the model's slope did not grow steadily with it).
 pub(super) fn trace(ctx: &TraceContext<'_>, out: &mut Vec<Candidate>) {
     let model = ctx.model;
     let fs = ctx.cfg.fs_hz;
-    // --- Amplitude-dependent resonance frequency: nonlinear stiffness.
-    if !has(model, EffectKind::NonlinearStiffness) {
-        let fn_hz = model.get("ln_fn_hz").map_or(3000.0, f64::exp) as f32;
-        let (lo, hi) = (0.75 * fn_hz, (1.25 * fn_hz).min(0.45 * fs));
-        let rate = model
-            .fault
-            .map_or(0.0, |loc| model.op.freqs.impact_rate(loc));
-        if let (true, Some((mh, mm)), Some((sh, sm))) = (
-            rate > 0.0,
-            ringdown_frequencies(ctx.x, fs, lo, hi, rate),
-            ringdown_frequencies(ctx.sim, fs, lo, hi, rate),
-        ) {
-            let meas_shift = mh / mm - 1.0;
-            let model_shift = sh / sm - 1.0;
-            // Beyond the shifts the model's own realizations show against it
-            // (`super::null`): ring-downs of impacts in noise scatter by a percent.
-            let null = (meas_shift - model_shift > 0.01)
-                .then(|| {
-                    ctx.nulls.test(meas_shift - model_shift, |y| {
-                        ringdown_frequencies(y, fs, lo, hi, rate)
-                            .map(|(a, b)| a / b - 1.0 - model_shift)
-                    })
-                })
-                .filter(NullTest::significant);
-            let slope = null.as_ref().and_then(|_| slope_test(ctx, lo, hi, rate));
-            if slope.as_ref().is_some_and(|t| !t.passes()) {
+    if has(model, EffectKind::NonlinearStiffness) {
+        return;
+    }
+    let fn_hz = model.get("ln_fn_hz").map_or(3000.0, f64::exp) as f32;
+    let (lo, hi) = (0.75 * fn_hz, (1.25 * fn_hz).min(0.45 * fs));
+    let rate = model
+        .fault
+        .map_or(0.0, |loc| model.op.freqs.impact_rate(loc));
+    if rate <= 0.0 {
+        return;
+    }
+    let (Some((mh, mm)), Some((sh, sm))) = (
+        ringdown_frequencies(ctx.x, fs, lo, hi, rate, ctx.holds),
+        ringdown_frequencies(ctx.sim, fs, lo, hi, rate, ctx.holds),
+    ) else {
+        return;
+    };
+    let meas_shift = mh / mm - 1.0;
+    let model_shift = sh / sm - 1.0;
+    let mut figures = serde_json::Map::new();
+    let (strength, initial, check) = match slope_test(ctx, lo, hi, rate) {
+        Some(t) => {
+            if !t.passes() {
                 return;
             }
-            if let Some(null) = null {
-                let mut figures = serde_json::Map::new();
-                if let Some(t) = slope {
-                    figures.insert("hardening".into(), t.figures());
-                }
-                figures.insert(
-                    "null_test".into(),
-                    null.figures("ringdown_relative_shift_over_model"),
-                );
-                figures.insert("ringdown_early_hz".into(), serde_json::json!(mh));
-                figures.insert("ringdown_late_hz".into(), serde_json::json!(mm));
-                figures.insert(
-                    "model_relative_shift".into(),
-                    serde_json::json!(model_shift),
-                );
-                out.push(Candidate {
-                    effect: Effect::NonlinearStiffness { initial_rel_shift: f64::from(meas_shift - model_shift) },
-                    evidence: Evidence {
-                        summary: format!("ring-downs near {fn_hz:.0} Hz start {:.1} % faster than they end (model: {:.1} %): the stiffness hardens with amplitude", 100.0 * meas_shift, 100.0 * model_shift),
-                        components: vec![],
-                        figures,
-                    },
-                    strength: 6.0 + 300.0 * (meas_shift - model_shift),
-                    check: Check::Ringdown { lo, hi, rate },
-                });
-            }
+            figures.insert("hardening".into(), t.figures());
+            // The slope is the relative rise of the early frequency at the mean
+            // squared amplitude: the start of the refit's shift.
+            let over = t.null.as_ref().map_or(0.0, |n| f64::from(n.mean));
+            (
+                6.0 + (20.0 * (t.z() / f64::from(NULL_Z)).max(1.0).log10()) as f32,
+                (t.hardening.slope - over).max(f64::from(meas_shift - model_shift)),
+                Check::Hardening { lo, hi, rate },
+            )
         }
-    }
+        None => {
+            // Beyond the shifts the model's own realizations show against it
+            // (`super::null`): ring-downs of impacts in noise scatter by a percent.
+            if meas_shift - model_shift <= 0.01 {
+                return;
+            }
+            let null = ctx.nulls.test(meas_shift - model_shift, |y| {
+                ringdown_frequencies(y, fs, lo, hi, rate, ctx.holds)
+                    .map(|(a, b)| a / b - 1.0 - model_shift)
+            });
+            if !null.significant() {
+                return;
+            }
+            figures.insert(
+                "null_test".into(),
+                null.figures("ringdown_relative_shift_over_model"),
+            );
+            (
+                6.0 + 300.0 * (meas_shift - model_shift),
+                f64::from(meas_shift - model_shift),
+                Check::Ringdown { lo, hi, rate },
+            )
+        }
+    };
+    figures.insert("ringdown_early_hz".into(), serde_json::json!(mh));
+    figures.insert("ringdown_late_hz".into(), serde_json::json!(mm));
+    figures.insert(
+        "model_relative_shift".into(),
+        serde_json::json!(model_shift),
+    );
+    out.push(Candidate {
+        effect: Effect::NonlinearStiffness { initial_rel_shift: initial.max(1e-3) },
+        evidence: Evidence {
+            summary: format!("ring-downs near {fn_hz:.0} Hz start faster the stronger the impact, beyond the model's own realizations (early frequency {:.1} % over the late one; model {:.1} %): the stiffness hardens with amplitude", 100.0 * meas_shift, 100.0 * model_shift),
+            components: vec![],
+            figures,
+        },
+        strength,
+        check,
+    });
 }
 
-/// The hardening slope of a record's ring-downs and its test against the model's draws.
+/// The hardening slopes of a record's ring-downs and their tests against the model's
+/// draws.
 struct SlopeTest {
     hardening: Hardening,
+    /// The early frequency's slope against the draws' (`None` with fewer than two).
     null: Option<NullTest>,
+    /// The early-less-late shift's slope against the draws'.
+    shift_null: Option<NullTest>,
 }
 
 impl SlopeTest {
     /// Whether the early frequency rises with the squared amplitude by [`NULL_Z`]
-    /// standard errors and, where two or more of the model's draws read a slope,
-    /// beyond those draws.
+    /// standard errors and, where two or more of the model's draws read slopes, both
+    /// the early frequency's and the early-less-late shift's slope stand [`NULL_Z`]
+    /// beyond the draws, each against the wider of the draws' spread and its own
+    /// standard error (the record's own scatter: where it holds something the model
+    /// lacks, the draws alone are too narrow). A hardening backbone makes both slopes:
+    /// the start is faster the stronger the impact, and the ring-down slows as it
+    /// decays the more the stronger it started. Asking for both is a second necessary
+    /// condition, not a proof: a steady tone in the band under the mode raises both
+    /// too (the weak ring-downs read toward it), and only the model's draws, once the
+    /// tone is in the model, tell it apart. Chosen on dev seed 3, on 50 of its cases
+    /// (the 23 with a hardening mode, the 5 with false claims of the early slope, 22
+    /// controls): the early slope alone against the draws alone was claimed falsely on
+    /// 5 (a clean control, mesh tones, two records with dropouts, mains), both slopes
+    /// against the widened spread on one (mains, claimed by the shift test before).
     fn passes(&self) -> bool {
-        self.hardening.slope >= f64::from(NULL_Z) * self.hardening.se
-            && self.null.as_ref().is_none_or(NullTest::significant)
+        let h = &self.hardening;
+        h.slope >= f64::from(NULL_Z) * h.se
+            && [&self.null, &self.shift_null]
+                .iter()
+                .all(|n| n.as_ref().is_none_or(NullTest::significant))
+    }
+
+    /// How far beyond the draws the weaker of the two slopes stands (their `z`), or
+    /// the early slope in its standard errors without draws.
+    fn z(&self) -> f64 {
+        match (&self.null, &self.shift_null) {
+            (Some(a), Some(b)) => f64::from(a.z().min(b.z())),
+            _ => self.hardening.slope / self.hardening.se,
+        }
     }
 
     fn figures(&self) -> serde_json::Value {
+        let h = &self.hardening;
         serde_json::json!({
-            "relative_slope_per_relative_amplitude_squared": self.hardening.slope,
-            "standard_error": self.hardening.se,
+            "relative_slope_per_relative_amplitude_squared": h.slope,
+            "standard_error": h.se,
             "null_test": self.null.map(|t| t.figures("hardening_slope")),
+            "shift_slope_per_relative_amplitude_squared": h.shift_slope,
+            "shift_standard_error": h.shift_se,
+            "shift_null_test": self.shift_null.map(|t| t.figures("hardening_shift_slope")),
         })
     }
 }
 
 /// `None` where the record's impacts are too alike in strength (or too few) to read a
-/// slope — the shift test then stands alone; else the slope and its test.
+/// slope — the shift test then stands alone; else the slopes and their tests.
 fn slope_test(ctx: &TraceContext<'_>, lo: f32, hi: f32, rate: f32) -> Option<SlopeTest> {
     let fs = ctx.cfg.fs_hz;
-    let hardening = ringdown_hardening(ctx.x, fs, lo, hi, rate)?;
-    let null = ctx.nulls.test(hardening.slope as f32, |y| {
-        ringdown_hardening(y, fs, lo, hi, rate).map(|h| h.slope as f32)
-    });
+    let hardening = ringdown_hardening(ctx.x, fs, lo, hi, rate, ctx.holds)?;
+    let read = |observed: f64, se: f64, stat: fn(&Hardening) -> f64| {
+        let t = ctx.nulls.test(observed as f32, |y| {
+            ringdown_hardening(y, fs, lo, hi, rate, ctx.holds).map(|h| stat(&h) as f32)
+        });
+        (t.draws >= 2).then(|| t.widened(se as f32))
+    };
     Some(SlopeTest {
+        null: read(hardening.slope, hardening.se, |h| h.slope),
+        shift_null: read(hardening.shift_slope, hardening.shift_se, |h| h.shift_slope),
         hardening,
-        null: (null.draws >= 2).then_some(null),
     })
 }
