@@ -244,7 +244,7 @@ fn weighted_slope(s: &[f64], y: &[f64], w: &[f64]) -> Option<(f64, f64)> {
     let wmean = |v: &[f64]| v.iter().zip(w).map(|(a, b)| a * b).sum::<f64>() / wsum;
     let (s_bar, y_bar) = (wmean(s), wmean(y));
     let sxx: f64 = s.iter().zip(w).map(|(a, b)| b * (a - s_bar).powi(2)).sum();
-    if !(sxx > 0.0) {
+    if sxx.is_nan() || sxx <= 0.0 {
         return None;
     }
     let sxy: f64 = s
