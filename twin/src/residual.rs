@@ -7,7 +7,7 @@
 //! residual `d(f) = measured − model`: `d > median(d) + max(6 dB, 5·1.4826·MAD(d))` (5σ over some 2000 bins).
 //! Narrow runs (≤ 4 bins, a Hann main lobe) are lines; wider runs are bands.
 
-use super::ringdown::{ringdown_frequencies, ringdown_hardening};
+use super::ringdown::RingdownBand;
 use super::signature::{to_db, welch, Signature, SignatureConfig};
 use super::twin::{Effect, TwinModel};
 use pumptwin_core::features::{envelope, EnvelopeBand};
@@ -166,7 +166,7 @@ pub enum Check {
         rate: f32,
     },
     /// Hardening slope (the ring-downs' early frequency against their squared
-    /// amplitude, [`ringdown_hardening`]) excess over the model's.
+    /// amplitude, [`RingdownBand::hardening`]) excess over the model's.
     Hardening {
         /// Band, Hz.
         lo: f32,
@@ -232,19 +232,27 @@ pub fn evidence_gap(
             }
         }
         Check::Ringdown { lo, hi, rate } => {
-            match (
-                ringdown_frequencies(x, cfg.fs_hz, lo, hi, rate, holds),
-                ringdown_frequencies(sim, cfg.fs_hz, lo, hi, rate, holds),
-            ) {
+            let band = RingdownBand {
+                fs: cfg.fs_hz,
+                lo,
+                hi,
+                rate_hz: rate,
+                holds,
+            };
+            match (band.frequencies(x), band.frequencies(sim)) {
                 (Some((a, b)), Some((c, d))) => 100.0 * ((a / b - 1.0) - (c / d - 1.0)),
                 _ => 0.0,
             }
         }
         Check::Hardening { lo, hi, rate } => {
-            match (
-                ringdown_hardening(x, cfg.fs_hz, lo, hi, rate, holds),
-                ringdown_hardening(sim, cfg.fs_hz, lo, hi, rate, holds),
-            ) {
+            let band = RingdownBand {
+                fs: cfg.fs_hz,
+                lo,
+                hi,
+                rate_hz: rate,
+                holds,
+            };
+            match (band.hardening(x), band.hardening(sim)) {
                 (Some(a), Some(b)) => (100.0 * (a.slope - b.slope)) as f32,
                 _ => 0.0,
             }

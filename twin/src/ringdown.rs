@@ -7,8 +7,9 @@
 //! modes beat, and the phase of their sum runs faster at the start of every ring-down
 //! whatever the impact's strength. What only an amplitude-dependent stiffness does is
 //! tie the shift to the amplitude, so where a record's impacts vary in strength (every
-//! real bearing's do) [`ringdown_hardening`] regresses each ring-down's early frequency
-//! on its squared amplitude and the tracer asks for that slope as well.
+//! real bearing's do) [`RingdownBand::hardening`] regresses each ring-down's early
+//! frequency, and its early-less-late shift, on its squared amplitude, and the tracer
+//! asks for those slopes first.
 
 use super::signature::block_within;
 use pumptwin_core::fft::{fft_in_place, Complex32, Direction};
@@ -53,62 +54,146 @@ impl Ringdowns {
     }
 }
 
-/// Every ring-down of `x` in the band `[lo, hi]` Hz: starts at local envelope maxima
-/// above 30 % of the block's 99th percentile, at least half an impact period apart
-/// (`rate_hz` is the impact rate). A block that overlaps one of `holds` (sample ranges
-/// where the acquisition held one value: a dropout) is not read: the steps into and out
-/// of a hold ring through the whole band-passed block, at no mode's frequency and with
-/// no impact's strength. `None` when the record is shorter than one block.
-pub fn ringdowns(
-    x: &[f32],
-    fs: f32,
-    lo: f32,
-    hi: f32,
-    rate_hz: f32,
-    holds: &[Range<usize>],
-) -> Option<Ringdowns> {
-    let n = block_within(8192, x.len(), 1);
-    if x.len() < n {
-        return None;
-    }
-    let mut scratch = vec![Complex32::ZERO; n];
-    let fc = 0.5 * (lo + hi);
-    let cycle = (fs / fc).max(2.0);
-    let w1 = (2.0 * cycle).round() as usize; // early window: first two cycles
-    let gap = (1.0 * cycle).round() as usize;
-    let min_sep = (0.5 * fs / rate_hz.max(1.0)) as usize;
-    let mut list = Vec::new();
-    for start in (0..=x.len() - n).step_by(n) {
-        if holds.iter().any(|h| h.start < start + n && h.end > start) {
-            continue;
+/// Where a mode's ring-downs are read: its band, the impact rate that spaces them, and
+/// the spans of the record not to read.
+#[derive(Debug, Clone, Copy)]
+pub struct RingdownBand<'a> {
+    /// Sampling rate, Hz.
+    pub fs: f32,
+    /// Band's lower edge, Hz.
+    pub lo: f32,
+    /// Band's upper edge, Hz.
+    pub hi: f32,
+    /// Impact rate, Hz: peaks closer than half a period are one ring-down.
+    pub rate_hz: f32,
+    /// Sample ranges where the acquisition held one value (dropouts).
+    pub holds: &'a [Range<usize>],
+}
+
+impl RingdownBand<'_> {
+    /// Every ring-down of `x` in the band `[lo, hi]` Hz: starts at local envelope maxima
+    /// above 30 % of the block's 99th percentile, at least half an impact period apart
+    /// (`rate_hz` is the impact rate). A block that overlaps one of `holds` (sample ranges
+    /// where the acquisition held one value: a dropout) is not read: the steps into and out
+    /// of a hold ring through the whole band-passed block, at no mode's frequency and with
+    /// no impact's strength. `None` when the record is shorter than one block.
+    pub fn ringdowns(&self, x: &[f32]) -> Option<Ringdowns> {
+        let Self {
+            fs,
+            lo,
+            hi,
+            rate_hz,
+            holds,
+        } = *self;
+        let n = block_within(8192, x.len(), 1);
+        if x.len() < n {
+            return None;
         }
-        let seg = &x[start..start + n];
-        analytic_in_band(seg, fs, lo, hi, &mut scratch)?;
-        let amp: Vec<f32> = scratch.iter().map(|z| z.norm()).collect();
-        let mut sorted = amp.clone();
-        let q = sorted.len() * 99 / 100;
-        let p99 = *sorted.select_nth_unstable_by(q, |a, b| a.total_cmp(b)).1;
-        let margin = 64 + 8 * w1;
-        let mut i = margin;
-        while i + margin < n {
-            if amp[i] >= 0.3 * p99 && amp[i] >= amp[i - 1] && amp[i] > amp[i + 1] {
-                let a0 = i + 1;
-                list.push(Ringdown {
-                    amp: amp[i],
-                    early_span: phase_span(&scratch, a0, a0 + w1),
-                    late_span: phase_span(&scratch, a0 + w1 + gap, a0 + 3 * w1 + gap),
-                });
-                i += min_sep.max(1);
-            } else {
-                i += 1;
+        let mut scratch = vec![Complex32::ZERO; n];
+        let fc = 0.5 * (lo + hi);
+        let cycle = (fs / fc).max(2.0);
+        let w1 = (2.0 * cycle).round() as usize; // early window: first two cycles
+        let gap = (1.0 * cycle).round() as usize;
+        let min_sep = (0.5 * fs / rate_hz.max(1.0)) as usize;
+        let mut list = Vec::new();
+        for start in (0..=x.len() - n).step_by(n) {
+            if holds.iter().any(|h| h.start < start + n && h.end > start) {
+                continue;
+            }
+            let seg = &x[start..start + n];
+            analytic_in_band(seg, fs, lo, hi, &mut scratch)?;
+            let amp: Vec<f32> = scratch.iter().map(|z| z.norm()).collect();
+            let mut sorted = amp.clone();
+            let q = sorted.len() * 99 / 100;
+            let p99 = *sorted.select_nth_unstable_by(q, |a, b| a.total_cmp(b)).1;
+            let margin = 64 + 8 * w1;
+            let mut i = margin;
+            while i + margin < n {
+                if amp[i] >= 0.3 * p99 && amp[i] >= amp[i - 1] && amp[i] > amp[i + 1] {
+                    let a0 = i + 1;
+                    list.push(Ringdown {
+                        amp: amp[i],
+                        early_span: phase_span(&scratch, a0, a0 + w1),
+                        late_span: phase_span(&scratch, a0 + w1 + gap, a0 + 3 * w1 + gap),
+                    });
+                    i += min_sep.max(1);
+                } else {
+                    i += 1;
+                }
             }
         }
+        Some(Ringdowns {
+            early_len: w1,
+            to_hz: f64::from(fs) / (2.0 * std::f64::consts::PI),
+            list,
+        })
     }
-    Some(Ringdowns {
-        early_len: w1,
-        to_hz: f64::from(fs) / (2.0 * std::f64::consts::PI),
-        list,
-    })
+
+    /// Ring-down frequency right after each impact vs later in the same ring-down:
+    /// `(f_early, f_late)` in Hz, each the mean over the ring-downs weighted by their
+    /// squared starting envelope. A hardening stiffness makes the large-amplitude start of
+    /// each ring-down faster than its tail; a linear mode rings at one frequency throughout.
+    pub fn frequencies(&self, x: &[f32]) -> Option<(f32, f32)> {
+        let r = self.ringdowns(x)?;
+        let w1 = r.early_len;
+        let (mut se, mut we, mut sl, mut wl) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+        for d in &r.list {
+            let weight = f64::from(d.amp).powi(2);
+            se += weight * d.early_span / w1 as f64;
+            we += weight;
+            sl += weight * d.late_span / (2 * w1) as f64;
+            wl += weight;
+        }
+        if we <= 0.0 || wl <= 0.0 {
+            return None;
+        }
+        Some(((se / we * r.to_hz) as f32, (sl / wl * r.to_hz) as f32))
+    }
+
+    /// The early frequency of each ring-down, and its early frequency less its late one,
+    /// regressed on its squared amplitude relative to the mean, weighted by the squared
+    /// amplitude (a strong ring-down's phase is read over less noise); both slopes and
+    /// their errors relative to the weighted mean early frequency. `None` with fewer than
+    /// [`MIN_RINGDOWNS`] ring-downs or a spread of strengths under
+    /// [`MIN_STRENGTH_SPREAD`] (the slope is then undetermined, and only the early-versus-
+    /// late shift can be read), or where that mean is not positive.
+    pub fn hardening(&self, x: &[f32]) -> Option<Hardening> {
+        let r = self.ringdowns(x)?;
+        let n = r.list.len();
+        if n < MIN_RINGDOWNS {
+            return None;
+        }
+        let sq: Vec<f64> = r.list.iter().map(|d| f64::from(d.amp).powi(2)).collect();
+        let mean_sq = sq.iter().sum::<f64>() / n as f64;
+        if mean_sq <= 0.0 {
+            return None;
+        }
+        let s: Vec<f64> = sq.iter().map(|v| v / mean_sq).collect();
+        let spread = (s.iter().map(|v| (v - 1.0).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt();
+        if spread < MIN_STRENGTH_SPREAD {
+            return None;
+        }
+        let early: Vec<f64> = r.list.iter().map(|d| r.early_hz(d)).collect();
+        let wsum = sq.iter().sum::<f64>();
+        let f_bar = early.iter().zip(&sq).map(|(a, b)| a * b).sum::<f64>() / wsum;
+        if f_bar.is_nan() || f_bar <= 0.0 {
+            return None;
+        }
+        let shift: Vec<f64> = r
+            .list
+            .iter()
+            .zip(&early)
+            .map(|(d, e)| e - d.late_span / (2 * r.early_len) as f64 * r.to_hz)
+            .collect();
+        let (slope, se) = weighted_slope(&s, &early, &sq)?;
+        let (shift_slope, shift_se) = weighted_slope(&s, &shift, &sq)?;
+        Some(Hardening {
+            slope: slope / f_bar,
+            se: se / f_bar,
+            shift_slope: shift_slope / f_bar,
+            shift_se: shift_se / f_bar,
+        })
+    }
 }
 
 /// `seg` (mean removed) as the analytic signal of its `[lo, hi]` Hz band, into `out`.
@@ -142,35 +227,6 @@ fn phase_span(z: &[Complex32], a: usize, b: usize) -> f64 {
     total
 }
 
-/// Ring-down frequency right after each impact vs later in the same ring-down:
-/// `(f_early, f_late)` in Hz, each the mean over the ring-downs weighted by their
-/// squared starting envelope. A hardening stiffness makes the large-amplitude start of
-/// each ring-down faster than its tail; a linear mode rings at one frequency throughout.
-/// `rate_hz` is the impact rate (peaks closer than half a period are merged).
-pub fn ringdown_frequencies(
-    x: &[f32],
-    fs: f32,
-    lo: f32,
-    hi: f32,
-    rate_hz: f32,
-    holds: &[Range<usize>],
-) -> Option<(f32, f32)> {
-    let r = ringdowns(x, fs, lo, hi, rate_hz, holds)?;
-    let w1 = r.early_len;
-    let (mut se, mut we, mut sl, mut wl) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
-    for d in &r.list {
-        let weight = f64::from(d.amp).powi(2);
-        se += weight * d.early_span / w1 as f64;
-        we += weight;
-        sl += weight * d.late_span / (2 * w1) as f64;
-        wl += weight;
-    }
-    if we <= 0.0 || wl <= 0.0 {
-        return None;
-    }
-    Some(((se / we * r.to_hz) as f32, (sl / wl * r.to_hz) as f32))
-}
-
 /// How a mode's early ring-down frequency rises with the impact's strength.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Hardening {
@@ -185,56 +241,6 @@ pub struct Hardening {
     pub shift_slope: f64,
     /// Its standard error.
     pub shift_se: f64,
-}
-
-/// The early frequency of each ring-down regressed on its squared amplitude relative
-/// to the mean, weighted by the squared amplitude (a strong ring-down's phase is read
-/// over less noise); `None` with fewer than [`MIN_RINGDOWNS`] ring-downs or a spread of
-/// strengths under [`MIN_STRENGTH_SPREAD`] (the slope is then undetermined, and only
-/// the early-versus-late shift can be read).
-pub fn ringdown_hardening(
-    x: &[f32],
-    fs: f32,
-    lo: f32,
-    hi: f32,
-    rate_hz: f32,
-    holds: &[Range<usize>],
-) -> Option<Hardening> {
-    let r = ringdowns(x, fs, lo, hi, rate_hz, holds)?;
-    let n = r.list.len();
-    if n < MIN_RINGDOWNS {
-        return None;
-    }
-    let sq: Vec<f64> = r.list.iter().map(|d| f64::from(d.amp).powi(2)).collect();
-    let mean_sq = sq.iter().sum::<f64>() / n as f64;
-    if mean_sq <= 0.0 {
-        return None;
-    }
-    let s: Vec<f64> = sq.iter().map(|v| v / mean_sq).collect();
-    let spread = (s.iter().map(|v| (v - 1.0).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt();
-    if spread < MIN_STRENGTH_SPREAD {
-        return None;
-    }
-    let early: Vec<f64> = r.list.iter().map(|d| r.early_hz(d)).collect();
-    let wsum = sq.iter().sum::<f64>();
-    let f_bar = early.iter().zip(&sq).map(|(a, b)| a * b).sum::<f64>() / wsum;
-    if f_bar.is_nan() || f_bar <= 0.0 {
-        return None;
-    }
-    let shift: Vec<f64> = r
-        .list
-        .iter()
-        .zip(&early)
-        .map(|(d, e)| e - d.late_span / (2 * r.early_len) as f64 * r.to_hz)
-        .collect();
-    let (slope, se) = weighted_slope(&s, &early, &sq)?;
-    let (shift_slope, shift_se) = weighted_slope(&s, &shift, &sq)?;
-    Some(Hardening {
-        slope: slope / f_bar,
-        se: se / f_bar,
-        shift_slope: shift_slope / f_bar,
-        shift_se: shift_se / f_bar,
-    })
 }
 
 /// The weighted least-squares slope of `y` on `s` (weights `w`) and its
@@ -269,6 +275,16 @@ mod tests {
 
     const FS: f32 = 12_000.0;
     const RATE: f32 = 100.0;
+
+    fn band(lo: f32, hi: f32) -> RingdownBand<'static> {
+        RingdownBand {
+            fs: FS,
+            lo,
+            hi,
+            rate_hz: RATE,
+            holds: &[],
+        }
+    }
 
     /// Impacts at `RATE` with strengths spread ±60 % (a fixed pseudo-random sequence),
     /// each ringing down through `ring(t, a)` (t in s, a the strength), plus a little
@@ -320,9 +336,13 @@ mod tests {
             env * ((w * t).sin() + 0.6 * (1.03 * w * t).sin())
         });
         let (lo, hi) = (0.75 * F0 as f32, 1.25 * F0 as f32);
-        let h = ringdown_hardening(&duffing, FS, lo, hi, RATE, &[]).expect("a slope");
+        let h = band(lo, hi).hardening(&duffing).expect("a slope");
         assert!(h.slope > 10.0 * h.se && h.slope > 0.005, "{h:?}");
-        let b = ringdown_hardening(&beating, FS, lo, hi, RATE, &[]).expect("a slope");
+        // 5 % at unit squared amplitude, averaged over the first two cycles (0.67 ms,
+        // where e^(−2·400·t) averages 0.77), per unit of squared amplitude relative to
+        // its mean (1.12 for strengths uniform on 0.4–1.6): 0.05 · 0.77 · 1.12 ≈ 0.043.
+        assert!((0.03..0.07).contains(&h.slope), "{h:?}");
+        let b = band(lo, hi).hardening(&beating).expect("a slope");
         assert!(b.slope.abs() < 3.0 * b.se.max(1e-4), "{b:?}");
         // The hardening ring-down slows as it decays, the more the stronger it
         // started; the beating one by as much at every strength.
@@ -330,11 +350,26 @@ mod tests {
         assert!(b.shift_slope.abs() < 3.0 * b.shift_se.max(1e-4), "{b:?}");
         // Both shift early against late: the shift alone does not tell them apart.
         let shift = |x: &[f32]| {
-            let (e, l) = ringdown_frequencies(x, FS, lo, hi, RATE, &[]).unwrap();
+            let (e, l) = band(lo, hi).frequencies(x).unwrap();
             e / l - 1.0
         };
         assert!(shift(&duffing) > 0.01, "{}", shift(&duffing));
         assert!(shift(&beating).abs() > 0.002, "{}", shift(&beating));
+    }
+
+    /// The weighted slope of points on a line is the line's, with no error; spread
+    /// around it, the error is White's.
+    #[test]
+    fn the_weighted_slope_is_least_squares() {
+        let (s, w) = ([0.5, 1.0, 1.5, 2.0], [1.0, 2.0, 1.0, 2.0]);
+        let on_line: Vec<f64> = s.iter().map(|v| 3.0 - 2.0 * v).collect();
+        let (b, se) = weighted_slope(&s, &on_line, &w).unwrap();
+        assert!((b + 2.0).abs() < 1e-12 && se < 1e-12, "{b} {se}");
+        // y = [0, 1, 0, 1]: s̄ = 4/3, ȳ = 2/3, Sxx = 11/6, Sxy = 2/3 by hand.
+        let (b, se) = weighted_slope(&s, &[0.0, 1.0, 0.0, 1.0], &w).unwrap();
+        assert!((b - 4.0 / 11.0).abs() < 1e-12, "{b}");
+        assert!(se > 0.0 && se.is_finite());
+        assert_eq!(weighted_slope(&[1.0, 1.0], &[0.0, 1.0], &[1.0, 1.0]), None);
     }
 
     /// A block that holds a dropout is not read; the others are read as before.
@@ -342,12 +377,17 @@ mod tests {
     fn a_held_block_is_not_read() {
         let mut x =
             impacts(|t, a| a * (-DECAY * t).exp() * (2.0 * std::f64::consts::PI * F0 * t).sin());
-        let all = ringdowns(&x, FS, 2250.0, 3750.0, RATE, &[]).unwrap();
+        let all = band(2250.0, 3750.0).ringdowns(&x).unwrap();
         let n = block_within(8192, x.len(), 1);
         let hold = n + 100..n + 600;
         let v = x[hold.start];
         x[hold.clone()].fill(v);
-        let read = ringdowns(&x, FS, 2250.0, 3750.0, RATE, &[hold]).unwrap();
+        let read = RingdownBand {
+            holds: &[hold],
+            ..band(2250.0, 3750.0)
+        }
+        .ringdowns(&x)
+        .unwrap();
         let blocks = x.len() / n;
         assert!(blocks >= 3, "{blocks}");
         let per_block = all.list.len() / blocks;
@@ -368,7 +408,7 @@ mod tests {
                 ((-DECAY * t).exp() * (2.0 * std::f64::consts::PI * F0 * t).sin()) as f32
             })
             .collect();
-        assert_eq!(ringdown_hardening(&x, FS, 2250.0, 3750.0, RATE, &[]), None);
-        assert!(ringdowns(&x[..100], FS, 2250.0, 3750.0, RATE, &[]).is_none());
+        assert_eq!(band(2250.0, 3750.0).hardening(&x), None);
+        assert!(band(2250.0, 3750.0).ringdowns(&x[..100]).is_none());
     }
 }

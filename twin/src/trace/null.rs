@@ -101,7 +101,8 @@ pub struct NullTest {
     pub observed: f32,
     /// Mean over the draws.
     pub mean: f32,
-    /// Standard deviation over the draws (n − 1).
+    /// Standard deviation over the draws (n − 1), or the wider spread it was
+    /// [`widened`](Self::widened) to.
     pub sd: f32,
     /// Draws it was read over.
     pub draws: usize,
@@ -214,5 +215,11 @@ mod tests {
         // Too few draws to say anything; identical draws still give a finite z.
         assert!(!NullTest::of(9.0, &[0.0]).significant());
         assert!(NullTest::of(1.0, &[0.5, 0.5, 0.5]).z().is_finite());
+        // Widened to a wider spread it reads in that spread; a narrower one, or NaN,
+        // leaves it as it was.
+        assert!((t.widened(2.0).z() - 2.0).abs() < 1e-6);
+        assert!(!t.widened(2.0).significant());
+        assert_eq!(t.widened(0.1), t);
+        assert_eq!(t.widened(f32::NAN), t);
     }
 }

@@ -7,13 +7,13 @@ use super::context::{has, TraceContext};
 use super::null::NullTest;
 use super::null::NULL_Z;
 use crate::residual::{Candidate, Check, Evidence};
-use crate::ringdown::{ringdown_frequencies, ringdown_hardening, Hardening};
+use crate::ringdown::{Hardening, RingdownBand};
 use crate::twin::Effect;
 use crate::twin::EffectKind;
 
 /// Offer nonlinear stiffness where the ring-downs' early frequency rises with the
 /// impact's strength beyond what the model's own realizations show (the hardening
-/// slope, [`ringdown_hardening`]) — the one reading that ties the shift to the
+/// slope, [`RingdownBand::hardening`]) — the one reading that ties the shift to the
 /// amplitude. Where the impacts are too alike in strength for a slope, the early-
 /// versus-late shift alone is read instead (beyond 1 % and the model's draws).
 ///
@@ -43,16 +43,21 @@ pub(super) fn trace(ctx: &TraceContext<'_>, out: &mut Vec<Candidate>) {
     if rate <= 0.0 {
         return;
     }
-    let (Some((mh, mm)), Some((sh, sm))) = (
-        ringdown_frequencies(ctx.x, fs, lo, hi, rate, ctx.holds),
-        ringdown_frequencies(ctx.sim, fs, lo, hi, rate, ctx.holds),
-    ) else {
+    let band = RingdownBand {
+        fs,
+        lo,
+        hi,
+        rate_hz: rate,
+        holds: ctx.holds,
+    };
+    let (Some((mh, mm)), Some((sh, sm))) = (band.frequencies(ctx.x), band.frequencies(ctx.sim))
+    else {
         return;
     };
     let meas_shift = mh / mm - 1.0;
     let model_shift = sh / sm - 1.0;
     let mut figures = serde_json::Map::new();
-    let (strength, initial, check) = match slope_test(ctx, lo, hi, rate) {
+    let (strength, initial, check) = match slope_test(ctx, &band) {
         Some(t) => {
             if !t.passes() {
                 return;
@@ -74,8 +79,7 @@ pub(super) fn trace(ctx: &TraceContext<'_>, out: &mut Vec<Candidate>) {
                 return;
             }
             let null = ctx.nulls.test(meas_shift - model_shift, |y| {
-                ringdown_frequencies(y, fs, lo, hi, rate, ctx.holds)
-                    .map(|(a, b)| a / b - 1.0 - model_shift)
+                band.frequencies(y).map(|(a, b)| a / b - 1.0 - model_shift)
             });
             if !null.significant() {
                 return;
@@ -100,7 +104,10 @@ pub(super) fn trace(ctx: &TraceContext<'_>, out: &mut Vec<Candidate>) {
     out.push(Candidate {
         effect: Effect::NonlinearStiffness { initial_rel_shift: initial.max(1e-3) },
         evidence: Evidence {
-            summary: format!("ring-downs near {fn_hz:.0} Hz start faster the stronger the impact, beyond the model's own realizations (early frequency {:.1} % over the late one; model {:.1} %): the stiffness hardens with amplitude", 100.0 * meas_shift, 100.0 * model_shift),
+            summary: format!("ring-downs near {fn_hz:.0} Hz {} (early frequency {:.1} % over the late one; model {:.1} %): the stiffness hardens with amplitude", match check {
+                Check::Hardening { .. } => "start faster, and slow more as they decay, the stronger the impact",
+                _ => "start faster than they end, beyond the model's own realizations",
+            }, 100.0 * meas_shift, 100.0 * model_shift),
             components: vec![],
             figures,
         },
@@ -167,12 +174,11 @@ impl SlopeTest {
 
 /// `None` where the record's impacts are too alike in strength (or too few) to read a
 /// slope — the shift test then stands alone; else the slopes and their tests.
-fn slope_test(ctx: &TraceContext<'_>, lo: f32, hi: f32, rate: f32) -> Option<SlopeTest> {
-    let fs = ctx.cfg.fs_hz;
-    let hardening = ringdown_hardening(ctx.x, fs, lo, hi, rate, ctx.holds)?;
+fn slope_test(ctx: &TraceContext<'_>, band: &RingdownBand<'_>) -> Option<SlopeTest> {
+    let hardening = band.hardening(ctx.x)?;
     let read = |observed: f64, se: f64, stat: fn(&Hardening) -> f64| {
         let t = ctx.nulls.test(observed as f32, |y| {
-            ringdown_hardening(y, fs, lo, hi, rate, ctx.holds).map(|h| stat(&h) as f32)
+            band.hardening(y).map(|h| stat(&h) as f32)
         });
         (t.draws >= 2).then(|| t.widened(se as f32))
     };
