@@ -192,6 +192,13 @@ pub fn evidence_gap(
     cfg: &SignatureConfig,
     holds: &[Range<usize>],
 ) -> f32 {
+    let ringdown_band = |lo, hi, rate_hz| RingdownBand {
+        fs: cfg.fs_hz,
+        lo,
+        hi,
+        rate_hz,
+        holds,
+    };
     match *check {
         Check::Lines => {
             let mut total = 0.0;
@@ -232,26 +239,14 @@ pub fn evidence_gap(
             }
         }
         Check::Ringdown { lo, hi, rate } => {
-            let band = RingdownBand {
-                fs: cfg.fs_hz,
-                lo,
-                hi,
-                rate_hz: rate,
-                holds,
-            };
+            let band = ringdown_band(lo, hi, rate);
             match (band.frequencies(x), band.frequencies(sim)) {
                 (Some((a, b)), Some((c, d))) => 100.0 * ((a / b - 1.0) - (c / d - 1.0)),
                 _ => 0.0,
             }
         }
         Check::Hardening { lo, hi, rate } => {
-            let band = RingdownBand {
-                fs: cfg.fs_hz,
-                lo,
-                hi,
-                rate_hz: rate,
-                holds,
-            };
+            let band = ringdown_band(lo, hi, rate);
             match (band.hardening(x), band.hardening(sim)) {
                 (Some(a), Some(b)) => (100.0 * (a.slope - b.slope)) as f32,
                 _ => 0.0,
