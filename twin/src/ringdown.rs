@@ -372,6 +372,27 @@ mod tests {
         assert_eq!(weighted_slope(&[1.0, 1.0], &[0.0, 1.0], &[1.0, 1.0]), None);
     }
 
+    /// The known limit of the two slopes: a linear mode under a steady tone below it in
+    /// the band (0.9 × the mode, a quarter of the mean impact) reads both rising with
+    /// strength, the weak ring-downs read toward the tone. Only the model's draws, once
+    /// the tone is in the model, tell it from a hardening (`trace::stiffness`).
+    #[test]
+    fn a_tone_under_the_mode_raises_both_slopes() {
+        let tone = 2.0 * std::f64::consts::PI * 0.9 * F0;
+        let mut x =
+            impacts(|t, a| a * (-DECAY * t).exp() * (2.0 * std::f64::consts::PI * F0 * t).sin());
+        for (i, v) in x.iter_mut().enumerate() {
+            *v += (0.25 * (tone * i as f64 / f64::from(FS)).sin()) as f32;
+        }
+        let h = band(0.75 * F0 as f32, 1.25 * F0 as f32)
+            .hardening(&x)
+            .expect("a slope");
+        assert!(
+            h.slope > 3.0 * h.se && h.shift_slope > 3.0 * h.shift_se,
+            "{h:?}"
+        );
+    }
+
     /// A block that holds a dropout is not read; the others are read as before.
     #[test]
     fn a_held_block_is_not_read() {
