@@ -24,11 +24,18 @@ use crate::twin::EffectKind;
 /// figure by under 1 % on most; the slope of the same records moves by several of its
 /// standard errors on most (a diagnostic run kept with the eighteenth session's note).
 /// The shift gated the slope until then: 0 of 23 found, stiffness offered on 3. With
-/// the slopes first ([`SlopeTest::passes`]) it is found on 1 of the 23: most offers
-/// are refitted to a stiffness whose own ring-downs do not reproduce the record's slope
-/// (rejected, their evidence unexplained). Starting the stiffness where a render's
-/// slope meets the record's did not help there (dev seed 3, cases 187, 252, 253: the
-/// refit moved it back, or the model's slope did not grow steadily with it).
+/// the slopes first ([`SlopeTest::passes`]) it is found on 1 of the 23, and on 2 since
+/// the hardening stiffens the model's second DOF too (`TwinModel`'s render: a first
+/// fit often lays the record's strongest ring there, where a radial-only cubic could
+/// not reproduce the slope at any strength). The model's slope now grows steadily with
+/// the stiffness to the record's on the offers of that seed, yet most are still
+/// rejected: refitted freely, the stiffness falls back below the record's slope (its
+/// evidence unexplained); started where a render's slope meets the record's and held
+/// there while the rest is refitted, the envelope and PSD errors rise instead (case
+/// 187: envelope 0.90 → 5.2). The twin's stiffened ring then fits the record's spectra
+/// worse than its linear one — how the twin's hardening differs from the record's
+/// beyond the slope is the open question (a tried and dropped start, nineteenth and
+/// twentieth sessions' notes).
 pub(super) fn trace(ctx: &TraceContext<'_>, out: &mut Vec<Candidate>) {
     let model = ctx.model;
     let fs = ctx.cfg.fs_hz;
