@@ -28,9 +28,9 @@ use crate::twin::EffectKind;
 /// the hardening stiffens the model's second DOF too (`TwinModel`'s render: a first
 /// fit often lays the record's strongest ring there, where a radial-only cubic could
 /// not reproduce the slope at any strength). The model's slope now grows steadily with
-/// the stiffness to the record's on the offers of that seed, yet most are still
-/// rejected: refitted freely, the stiffness falls back below the record's slope (its
-/// evidence unexplained); started where a render's slope meets the record's and held
+/// the stiffness to the record's on four of five offers examined there (on the fifth
+/// it peaks below), yet most are still rejected: refitted freely, the stiffness falls
+/// back 0.8–2 (ln) below the record's slope (its evidence unexplained); started where a render's slope meets the record's and held
 /// there while the rest is refitted, the envelope and PSD errors rise instead (case
 /// 187: envelope 0.90 → 5.2). The twin's stiffened ring then fits the record's spectra
 /// worse than its linear one — how the twin's hardening differs from the record's
