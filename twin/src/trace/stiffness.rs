@@ -30,9 +30,9 @@ use crate::twin::EffectKind;
 /// not reproduce the slope at any strength). The model's slope now grows steadily with
 /// the stiffness to the record's on four of five offers examined there (on the fifth
 /// it peaks below), yet most are still rejected: refitted freely, the stiffness falls
-/// back 0.8–2 (ln) below the record's slope (its evidence unexplained); started where a render's slope meets the record's and held
-/// there while the rest is refitted, the envelope and PSD errors rise instead (case
-/// 187: envelope 0.90 → 5.2). The twin's stiffened ring then fits the record's spectra
+/// back 0.8–2 (ln) below the record's slope (its evidence unexplained); started where
+/// a render's slope meets the record's and held there while the rest is refitted, the
+/// envelope and PSD errors rise instead (case 187: envelope 0.90 → 5.2). The twin's stiffened ring then fits the record's spectra
 /// worse than its linear one — how the twin's hardening differs from the record's
 /// beyond the slope is the open question (a tried and dropped start, nineteenth and
 /// twentieth sessions' notes).
