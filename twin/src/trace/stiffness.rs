@@ -32,10 +32,10 @@ use crate::twin::EffectKind;
 /// it peaks below), yet most are still rejected: refitted freely, the stiffness falls
 /// back 0.8–2 (ln) below the record's slope (its evidence unexplained); started where
 /// a render's slope meets the record's and held there while the rest is refitted, the
-/// envelope and PSD errors rise instead (case 187: envelope 0.90 → 5.2). The twin's stiffened ring then fits the record's spectra
-/// worse than its linear one — how the twin's hardening differs from the record's
-/// beyond the slope is the open question (a tried and dropped start, nineteenth and
-/// twentieth sessions' notes).
+/// envelope and PSD errors rise instead (case 187: envelope 0.90 → 5.2). The twin's
+/// stiffened ring then fits the record's spectra worse than its linear one — how the
+/// twin's hardening differs from the record's beyond the slope is the open question
+/// (a tried and dropped start, nineteenth and twentieth sessions' notes).
 pub(super) fn trace(ctx: &TraceContext<'_>, out: &mut Vec<Candidate>) {
     let model = ctx.model;
     let fs = ctx.cfg.fs_hz;
@@ -146,9 +146,10 @@ impl SlopeTest {
     /// too (the weak ring-downs read toward it), and only the model's draws, once the
     /// tone is in the model, tell it apart. Chosen on dev seed 3, on 50 of its cases
     /// (the 23 with a hardening mode, 5 more with false claims of the early slope
-    /// alone, 22 controls): the early slope alone against the draws alone was claimed falsely on
-    /// 5 (a clean control, mesh tones, two records with dropouts, mains), both slopes
-    /// against the widened spread on one (mains, claimed by the shift test before).
+    /// alone, 22 controls): the early slope alone against the draws alone was claimed
+    /// falsely on 5 (a clean control, mesh tones, two records with dropouts, mains),
+    /// both slopes against the widened spread on one (mains, claimed by the shift test
+    /// before).
     fn passes(&self) -> bool {
         let h = &self.hardening;
         h.slope >= f64::from(NULL_Z) * h.se
