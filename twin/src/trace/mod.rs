@@ -4,7 +4,7 @@
 //!
 //! | tracer | reads | offers |
 //! |---|---|---|
-//! | [`lines`] | PSD lines | mains, shaft harmonics, shaft-order tones, half orders, an unexplained tone |
+//! | [`lines`] | PSD lines | mains, shaft harmonics, shaft-order tones, half orders, an unexplained tone (one that keeps its phase over the record) |
 //! | [`bands`] | PSD bands, the band-limited kurtosis | a structural mode, a band at the sensor, random bursts, random impacts |
 //! | [`modulation`] | envelope sidebands | a load-zone (or other) modulation of the impacts |
 //! | [`impact_train`] | envelope harmonic families | a second impact train |
