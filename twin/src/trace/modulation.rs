@@ -106,6 +106,18 @@ pub fn measured_modulation(
         })
 }
 
+/// The rates a measured modulation must not be read at: the kinematic rate, the
+/// shaft, and each rate the model already modulates its impacts at with its 2nd to
+/// 4th harmonics. A modulation narrower than its period (a Harris load zone that
+/// covers part of a turn) modulates the impacts at the harmonics of its rate too:
+/// those lines are its shape, which the model already has, not a load of its own.
+fn known_rates(kinematic: f64, shaft: f64, modelled: &[f64]) -> Vec<f64> {
+    let harmonics = modelled
+        .iter()
+        .flat_map(|r| (1..=4).map(move |k| f64::from(k) * r));
+    [kinematic, shaft].into_iter().chain(harmonics).collect()
+}
+
 /// Offer a modulation of the impacts (up to [`MAX_MODULATIONS`]): read off the
 /// envelope's sidebands, or at the kinematic rate.
 pub(super) fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>, out: &mut Vec<Candidate>) {
@@ -157,8 +169,7 @@ pub(super) fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>, out: &m
             let f = peak_frequency(spec, fs, lo as f32, (f0 + dfe) as f32).ok()?;
             Some(f64::from(f))
         };
-        let mut known = vec![fm, shaft];
-        known.extend(modulation_rates(model));
+        let known = known_rates(fm, shaft, &modulation_rates(model));
         let measured = measured_modulation(&analysis.envelope, fd, &known, dfe, refine)
             .filter(|m| !kinematic || m.sidebands > side.len());
         if let Some(m) = measured {
@@ -262,6 +273,26 @@ mod tests {
         }
         let m = measured_modulation(&env, FD, &[29.95], DFE, |_| None).expect("a modulation");
         assert!((m.rate_hz - 2.7).abs() < 1e-9, "{}", m.rate_hz);
+    }
+
+    /// An inner race whose model already has its load zone at the shaft rate: the
+    /// zone's second harmonic (59.9 Hz, with sidebands around each tooth) is the
+    /// zone's shape, not a second modulation; without the zone in the model the same
+    /// lines are one.
+    #[test]
+    fn a_modelled_zone_s_harmonic_is_not_a_new_modulation() {
+        const BPFI: f64 = 162.2;
+        let rate = 2.0 * 29.95;
+        let mut env = vec![line(rate)];
+        for k in 1..=3 {
+            let tooth = f64::from(k) * BPFI;
+            env.extend([line(tooth - rate), line(tooth + rate)]);
+        }
+        let bare = known_rates(29.95, 29.95, &[]);
+        let with_zone = known_rates(29.95, 29.95, &[29.95]);
+        let read = |known: &[f64]| measured_modulation(&env, BPFI, known, DFE, |_| None);
+        assert!(read(&bare).is_some_and(|m| (m.rate_hz - rate).abs() < 1e-9));
+        assert!(read(&with_zone).is_none());
     }
 
     /// A sum has no sidebands: a low line beside an unrelated train's harmonics (a
