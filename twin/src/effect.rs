@@ -73,7 +73,8 @@ pub enum Effect {
     },
     /// A second structural mode near `f_hz`.
     ExtraResonance {
-        /// Initial natural frequency, Hz.
+        /// Natural frequency, Hz: the start its evidence gave (a report's step
+        /// names it as fitted, [`crate::twin::TwinModel::fitted_effect`]).
         f_hz: f64,
     },
     /// Cubic (hardening) stiffness.

@@ -323,6 +323,38 @@ impl TwinModel {
         out
     }
 
+    /// The `i`-th effect (in the order added) with the frequencies its fit moved put
+    /// back in: a mode's natural frequency (clamped as [`Self::modes`] simulates it),
+    /// a band's or the bursts' centre and width. The effect as offered holds only the
+    /// starts its evidence gave (a band's peak on a residual smoothed over ±100 Hz),
+    /// and a claim must name what the model has: a mode fitted at 3673 Hz was once
+    /// reported at its start, 3823 Hz.
+    pub fn fitted_effect(&self, i: usize) -> Option<Effect> {
+        let (effect, span) = self.effect_spans().nth(i)?;
+        let params = &self.params[span];
+        let fitted = |prefix: &str| {
+            params
+                .iter()
+                .find(|p| p.name.starts_with(prefix))
+                .map(|p| p.value.exp())
+        };
+        let top = MODE_MAX_REL_FS * f64::from(self.op.fs_hz);
+        Some(match effect {
+            Effect::ExtraResonance { f_hz } => Effect::ExtraResonance {
+                f_hz: fitted("ln_fn2_hz").map_or(*f_hz, |f| f.min(top)),
+            },
+            Effect::UnexplainedBand { f_hz, bandwidth_hz } => Effect::UnexplainedBand {
+                f_hz: fitted("ln_band_centre_hz").unwrap_or(*f_hz),
+                bandwidth_hz: fitted("ln_band_width_hz").unwrap_or(*bandwidth_hz),
+            },
+            Effect::RandomBursts { f_hz, bandwidth_hz } => Effect::RandomBursts {
+                f_hz: fitted("ln_burst_ring_hz").unwrap_or(*f_hz),
+                bandwidth_hz: fitted("ln_burst_width_hz").unwrap_or(*bandwidth_hz),
+            },
+            other => other.clone(),
+        })
+    }
+
     /// Every effect with the index range of its parameters, in the order added.
     fn effect_spans(&self) -> impl Iterator<Item = (&Effect, std::ops::Range<usize>)> + '_ {
         self.effects.iter().enumerate().map(|(i, (e, first))| {
@@ -1053,6 +1085,44 @@ mod tests {
             only_spread,
             "an index past the effects changes nothing"
         );
+    }
+
+    /// A claim names the mode and the band as fitted: the fitted values replace the
+    /// starts the evidence gave, a second mode's own parameters are read (not the
+    /// first's), and an effect without a fitted frequency comes back as added.
+    #[test]
+    fn a_fitted_effect_names_what_the_fit_moved() {
+        let op = OperatingPoint {
+            fs_hz: 12_000.0,
+            freqs: pumptwin_core::bearing::BearingGeometry::CWRU_6205_DE.frequencies(29.95),
+        };
+        let none = |_: f64, _: f64| None;
+        let band = Effect::UnexplainedBand {
+            f_hz: 2_000.0,
+            bandwidth_hz: 100.0,
+        };
+        let mut m = TwinModel::base(op, Some(DefectLocation::OuterRace), 3000.0, 0.05, 1.0, 0.01)
+            .with_effect(Effect::ExtraResonance { f_hz: 1800.0 }, &none)
+            .with_effect(Effect::Slip, &none)
+            .with_effect(Effect::ExtraResonance { f_hz: 900.0 }, &none)
+            .with_effect(band, &none);
+        let mut set = |name: &str, v: f64| {
+            let p = m.params.iter_mut().find(|p| p.name == name).unwrap();
+            p.value = v.ln();
+        };
+        set("ln_fn2_hz", 1_850.0);
+        set("ln_fn2_hz_2", 870.0);
+        set("ln_band_centre_hz", 2_050.0);
+        let f = |e: Option<Effect>| match e {
+            Some(Effect::ExtraResonance { f_hz }) => f_hz,
+            Some(Effect::UnexplainedBand { f_hz, .. }) => f_hz,
+            other => panic!("{other:?}"),
+        };
+        assert!((f(m.fitted_effect(0)) - 1_850.0).abs() < 1e-6);
+        assert!((f(m.fitted_effect(2)) - 870.0).abs() < 1e-6);
+        assert!((f(m.fitted_effect(3)) - 2_050.0).abs() < 1e-6);
+        assert_eq!(m.fitted_effect(1), Some(Effect::Slip));
+        assert_eq!(m.fitted_effect(4), None);
     }
 
     /// The hardening acts on the second DOF too: a first fit may lay a record's

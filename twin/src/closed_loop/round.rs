@@ -165,9 +165,17 @@ fn conclude(
 ) -> Next {
     let accepted = kept.is_some();
     if let Some((cand, trial)) = kept {
+        // The claim names the effect as fitted (the last of its kind: the one just
+        // added), not the start its evidence gave.
+        let effects = &trial.model.effects;
+        let detail = effects
+            .iter()
+            .rposition(|(e, _)| e.kind() == cand.effect.kind())
+            .and_then(|i| trial.model.fitted_effect(i))
+            .unwrap_or_else(|| cand.effect.clone());
         st.steps.push(LoopStep {
             effect: cand.effect.name().to_string(),
-            detail: cand.effect,
+            detail,
             evidence: cand.evidence,
             params: trial.model.physical(),
             error_before: st.current.figures,
