@@ -117,27 +117,7 @@ fn band_readings(
             .insert("band_kurtosis_model".into(), serde_json::json!(ks));
     }
     let strength = b.excess_db + 3.0 * (b.width_hz / 100.0).min(5.0) as f32;
-    // A healthy model rings its modes with the machine's background alone, which is
-    // Gaussian, and noise at the sensor is Gaussian too: a band more impulsive than
-    // the model's own realizations there is neither a mode of this structure nor band
-    // noise, whatever its shape. Impacts at random times carry it, which the record's
-    // kurtosis says (`trace_random_impacts`). Not on a record with dropouts: a step
-    // into and out of each hole is impulsive in any band, so there the band's
-    // kurtosis says nothing of bursts (the random-impacts reading is withheld from
-    // such a record for the same reason; a healthy case with dropouts and an extra
-    // mode on the randomized benchmark's `--seed 2` lost its mode to this rule).
-    let random_impulses = model.fault.is_none()
-        && ctx.holds.is_empty()
-        && kurt.is_some_and(|(km, ks)| {
-            km > ks
-                && ctx
-                    .nulls
-                    .test((km / ks).ln(), |y| {
-                        band_kurtosis(y, fs, l, h).map(|k| (k / ks).ln())
-                    })
-                    .significant()
-        });
-    if random_impulses {
+    if random_impulses(kurt, (l, h), ctx) {
         return;
     }
     // The readings offered: a structural mode, a band added at the sensor, or (a
@@ -211,6 +191,32 @@ fn band_readings(
         strength,
         ctx,
     ));
+}
+
+/// Whether a band (its run `[l, h]` Hz, its kurtosis `kurt` in the record and in the
+/// model) is carried by impacts at random times on a healthy model. A healthy model
+/// rings its modes with the machine's background alone, which is Gaussian, and noise
+/// at the sensor is Gaussian too: a band more impulsive than the model's own
+/// realizations there is neither a mode of this structure nor band noise, whatever
+/// its shape. The record's kurtosis reads the bursts instead
+/// ([`trace_random_impacts`]). Never on a record with dropouts: a step into and out of
+/// each hole is impulsive in any band, so there the band's kurtosis says nothing of
+/// bursts (the random-impacts reading is withheld from such a record for the same
+/// reason; a healthy case with dropouts and an extra mode on the randomized
+/// benchmark's `--seed 2` lost its mode to this rule).
+fn random_impulses(kurt: Option<(f32, f32)>, (l, h): (f32, f32), ctx: &TraceContext<'_>) -> bool {
+    let fs = ctx.cfg.fs_hz;
+    ctx.model.fault.is_none()
+        && ctx.holds.is_empty()
+        && kurt.is_some_and(|(km, ks)| {
+            km > ks
+                && ctx
+                    .nulls
+                    .test((km / ks).ln(), |y| {
+                        band_kurtosis(y, fs, l, h).map(|k| (k / ks).ln())
+                    })
+                    .significant()
+        })
 }
 
 /// Random bursts as the reading of band `b` (its run `[l, h]` Hz), offered as a
