@@ -1063,14 +1063,19 @@ mod tests {
         );
     }
 
+    /// The tests' operating point: CWRU's 6205 drive-end bearing at 29.95 Hz, 12 kHz.
+    fn cwru_op() -> OperatingPoint {
+        OperatingPoint {
+            fs_hz: 12_000.0,
+            freqs: BearingGeometry::CWRU_6205_DE.frequencies(29.95),
+        }
+    }
+
     /// Two added structural modes (the second by modal superposition) each raise the
     /// rendered PSD at their frequency; the model without them has no such peaks.
     #[test]
     fn an_effect_taken_out_leaves_the_model_it_was_added_to() {
-        let op = OperatingPoint {
-            fs_hz: 12_000.0,
-            freqs: pumptwin_core::bearing::BearingGeometry::CWRU_6205_DE.frequencies(29.95),
-        };
+        let op = cwru_op();
         let none = |_: f64, _: f64| None;
         let base = TwinModel::base(op, Some(DefectLocation::OuterRace), 3000.0, 0.05, 1.0, 0.01);
         let one = base.with_effect(Effect::ExtraResonance { f_hz: 1800.0 }, &none);
@@ -1092,10 +1097,7 @@ mod tests {
     /// first's), and an effect without a fitted frequency comes back as added.
     #[test]
     fn a_fitted_effect_names_what_the_fit_moved() {
-        let op = OperatingPoint {
-            fs_hz: 12_000.0,
-            freqs: pumptwin_core::bearing::BearingGeometry::CWRU_6205_DE.frequencies(29.95),
-        };
+        let op = cwru_op();
         let none = |_: f64, _: f64| None;
         let band = Effect::UnexplainedBand {
             f_hz: 2_000.0,
@@ -1132,10 +1134,7 @@ mod tests {
     /// hardening must raise the ring-downs' slope there.
     #[test]
     fn the_hardening_stiffens_the_second_dof() {
-        let op = OperatingPoint {
-            fs_hz: 12_000.0,
-            freqs: BearingGeometry::CWRU_6205_DE.frequencies(29.95),
-        };
+        let op = cwru_op();
         let loc = DefectLocation::InnerRace;
         let base = TwinModel::base(op, Some(loc), 1_500.0, 0.05, 1.0, 1e-4);
         let none = |_: f64, _: f64| None;
@@ -1188,10 +1187,7 @@ mod tests {
 
     #[test]
     fn further_modes_add_resonances_by_superposition() {
-        let op = OperatingPoint {
-            fs_hz: 12_000.0,
-            freqs: BearingGeometry::CWRU_6205_DE.frequencies(29.95),
-        };
+        let op = cwru_op();
         let base = TwinModel::base(
             op,
             Some(DefectLocation::InnerRace),
