@@ -346,10 +346,9 @@ impl TwinModel {
                 .find(|p| p.name.starts_with(prefix))
                 .map(|p| p.value.exp())
         };
-        let top = MODE_MAX_REL_FS * f64::from(self.op.fs_hz);
         Some(match effect {
             Effect::ExtraResonance { f_hz } => Effect::ExtraResonance {
-                f_hz: fitted("ln_fn2_hz").map_or(*f_hz, |f| f.min(top)),
+                f_hz: fitted("ln_fn2_hz").map_or(*f_hz, |f| self.as_simulated(f, 0.0).0),
             },
             Effect::UnexplainedBand { f_hz, bandwidth_hz } => Effect::UnexplainedBand {
                 f_hz: fitted("ln_band_centre_hz").unwrap_or(*f_hz),
@@ -384,23 +383,27 @@ impl TwinModel {
     /// simulated) and damping ratio of each mode the model has: the base mode first
     /// (never absent), then every extra resonance.
     pub fn modes(&self) -> Vec<(f64, f64)> {
-        let top = MODE_MAX_REL_FS * f64::from(self.op.fs_hz);
-        let base = (
-            self.get("ln_fn_hz").map_or(3000.0, f64::exp).min(top),
-            self.get("ln_zeta")
-                .map_or(0.05, f64::exp)
-                .min(MODE_MAX_ZETA),
+        let base = self.as_simulated(
+            self.get("ln_fn_hz").map_or(3000.0, f64::exp),
+            self.get("ln_zeta").map_or(0.05, f64::exp),
         );
         let extra = self
             .effects_of(EffectKind::ExtraResonance)
             .into_iter()
             .filter_map(|(_, p)| {
-                Some((
-                    p.first()?.value.exp().min(top),
-                    p.get(1)?.value.exp().min(MODE_MAX_ZETA),
-                ))
+                Some(self.as_simulated(p.first()?.value.exp(), p.get(1)?.value.exp()))
             });
         std::iter::once(base).chain(extra).collect()
+    }
+
+    /// A mode's natural frequency and damping ratio as they are simulated: the
+    /// frequency at most [`MODE_MAX_REL_FS`]·fs, the damping at most
+    /// [`MODE_MAX_ZETA`]. The one place both bounds are applied.
+    fn as_simulated(&self, fn_hz: f64, zeta: f64) -> (f64, f64) {
+        (
+            fn_hz.min(MODE_MAX_REL_FS * f64::from(self.op.fs_hz)),
+            zeta.min(MODE_MAX_ZETA),
+        )
     }
 
     /// The mean overlap `λ·τ` of the last [`Effect::RandomBursts`] (rate × decay time
@@ -570,9 +573,7 @@ impl TwinModel {
         let n_sim = n_out * OVERSAMPLE;
         let shaft = f64::from(self.op.freqs.shaft);
         let get = |n: &str| self.get(n);
-        let top = MODE_MAX_REL_FS * fs;
-        let fn_hz = get("ln_fn_hz").map_or(3000.0, f64::exp).min(top);
-        let zeta = get("ln_zeta").map_or(0.05, f64::exp).min(MODE_MAX_ZETA);
+        let (fn_hz, zeta) = self.modes()[0];
         let drift = self
             .effect_params(EffectKind::SpeedDrift)
             .map_or(0.0, |(_, p)| p[0].value.clamp(-0.2, 0.2));
@@ -804,12 +805,8 @@ impl TwinModel {
             .iter()
             .filter(|(_, p)| p.len() >= 3)
             .map(|(_, p)| {
-                let top = MODE_MAX_REL_FS * f64::from(self.op.fs_hz);
-                (
-                    p[0].value.exp().min(top),
-                    p[1].value.exp().min(MODE_MAX_ZETA),
-                    p[2].value.exp(),
-                )
+                let (f, zeta) = self.as_simulated(p[0].value.exp(), p[1].value.exp());
+                (f, zeta, p[2].value.exp())
             })
             .collect();
         if let Some(&(f2, z2, share)) = extra_modes.first() {
