@@ -152,12 +152,16 @@ pub(super) struct Trials {
 
 /// Whether `a` and `b` name a residual line in common (same domain, within 1e-6 Hz).
 fn shares_evidence(a: &Candidate, b: &Candidate) -> bool {
-    a.evidence.components.iter().any(|x| {
-        b.evidence
-            .components
-            .iter()
-            .any(|y| x.domain == y.domain && (x.f_hz - y.f_hz).abs() < 1e-6)
-    })
+    a.evidence
+        .components
+        .iter()
+        .any(|x| b.evidence.components.iter().any(|y| same_component(x, y)))
+}
+
+/// Whether two candidates' components are one residual component (the tracers copy
+/// them from the same analysis).
+fn same_component(x: &Component, y: &Component) -> bool {
+    x.domain == y.domain && (x.f_hz - y.f_hz).abs() < 1e-6
 }
 
 /// What a tried candidate is remembered by: its name, and for a structural mode its
@@ -661,7 +665,7 @@ impl Trial<'_> {
                     .evidence
                     .components
                     .iter()
-                    .any(|f| f.domain == c.domain && (f.f_hz - c.f_hz).abs() < 1e-6)
+                    .any(|f| same_component(f, c))
             })
             .cloned()
             .collect();
