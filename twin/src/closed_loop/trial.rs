@@ -613,9 +613,11 @@ impl Trial<'_> {
             let Some((rt, rv)) = fitted else {
                 continue;
             };
-            let clearly_better = rt.cost < 0.99 * best.1.cost;
-            let simpler = rt.cost <= best.1.cost && self.covers_more(&best, rival, &rt);
-            let (loser, lost, winner) = if rv.passes && (clearly_better || simpler) {
+            // Whether the rival covers more is asked last: it simulates both fits.
+            let wins = rv.passes
+                && (rt.cost < 0.99 * best.1.cost
+                    || rt.cost <= best.1.cost && self.covers_more(&best, rival, &rt));
+            let (loser, lost, winner) = if wins {
                 let old = std::mem::replace(&mut best, (rival.clone(), rt));
                 (old.0, old.1, best.0.effect.name())
             } else {
