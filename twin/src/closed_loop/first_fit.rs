@@ -679,11 +679,28 @@ fn identify_fault(
         serde_json::json!(family_level_db(env, df, f.shaft, &[])),
     );
     ev.insert("threshold_db".into(), serde_json::json!(threshold));
-    let best = candidates
+    let mut best = candidates
         .iter()
         .copied()
         .max_by(|a, b| a.1.total_cmp(&b.1))
         .unwrap_or((None, 0.0));
+    // Where the outer race's rate and a ball's (2·BSF or BSF) coincide within twice
+    // the slip, both families read the same lines; a ball's strikes pass the load zone
+    // once per cage turn and an outer-race defect's do not, so the cage rate's own
+    // lines decide.
+    let coincide = [2.0 * f.bsf, f.bsf]
+        .iter()
+        .any(|&r| (r - f.bpfo).abs() <= 2.0 * SLIP * f.bpfo);
+    let pair = [Some(DefectLocation::OuterRace), Some(DefectLocation::Ball)];
+    if coincide && pair.contains(&best.0) {
+        let cage_db = family_level_db(env, df, f.ftf, &[]);
+        ev.insert("ftf_db".into(), serde_json::json!(cage_db));
+        best.0 = if cage_db >= threshold {
+            pair[1]
+        } else {
+            pair[0]
+        };
+    }
     if best.1 >= threshold {
         (best.0, ev)
     } else {
