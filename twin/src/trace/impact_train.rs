@@ -32,10 +32,11 @@ const OWN_RATE_EXCLUSION: f64 = 0.05;
 const TRAIN_MAX_HARMONIC: f64 = 20.0;
 
 /// Impacts the model lacks: residual envelope lines (not the modelled comb, not its
-/// load-zone sidebands) that form a harmonic family `k·r`, at least two lines one of
-/// which is the first or second harmonic, or one line at a defect rate of the bearing
-/// (once-per-turn trains, named `shaft`, need three: the shaft's own 1× and 2×
-/// envelope lines come from modulation as often).
+/// load-zone sidebands) that form another defect's kinematic family
+/// (`defect_family`, looked for first), else a harmonic family `k·r`, at least two
+/// lines one of which is the first or second harmonic (once-per-turn trains, named
+/// `shaft`, need three: the shaft's own 1× and 2× envelope lines come from modulation
+/// as often).
 /// The rate is named for the bearing's defect rates (the modelled one excluded) or
 /// the shaft rate within [`NAMED_RATE_TOLERANCE`], else `unexplained`.
 pub fn second_train(
