@@ -430,7 +430,7 @@ fn kurtosis_matched(s: &Setup<'_>, model: &TwinModel) -> Result<(TwinModel, usiz
 /// of the defect's period, per impact): real bearings slip 1–2 %, and from one start
 /// the cost's roughness in the slip (see [`crate::twin::SLIP_STEP`]) leaves the fit
 /// near it.
-const SLIP_STARTS: [f64; 4] = [0.004, 0.008, 0.016, 0.032];
+const SLIP_STARTS: [f64; 6] = [0.001, 0.002, 0.004, 0.008, 0.016, 0.032];
 
 /// `model` with its slip (if it has one) set to the best of [`SLIP_STARTS`] by the
 /// cost, and the evaluations that cost.
