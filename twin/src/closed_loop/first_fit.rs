@@ -432,12 +432,40 @@ fn kurtosis_matched(s: &Setup<'_>, model: &TwinModel) -> Result<(TwinModel, usiz
 /// near it.
 const SLIP_STARTS: [f64; 6] = [0.001, 0.002, 0.004, 0.008, 0.016, 0.032];
 
+/// The slip a reading of zero is held at: a renewal walk this small keeps every
+/// tooth of the compared band sharp.
+const MEASURED_SLIP_FLOOR: f64 = 1e-4;
+
+/// The record's slip read off its comb at the model's impact rate
+/// ([`crate::slip::read_slip`], over the line-resolution PSD's compared band), or
+/// `None` where the model has no defect or too few teeth stand.
+fn measured_slip(s: &Setup<'_>, model: &TwinModel) -> Option<f64> {
+    let loc = model.fault?;
+    let rate = f64::from(model.op.freqs.impact_rate(loc))
+        * (1.0 + model.get("rate_factor").unwrap_or(0.0));
+    let cfg = &s.sig_res;
+    let df = f64::from(cfg.fs_hz) / cfg.psd_n as f64;
+    crate::slip::read_slip(
+        &s.target_res.meas.psd,
+        df,
+        rate,
+        f64::from(cfg.psd_lo_hz),
+        f64::from(cfg.psd_hi_hz),
+    )
+    .map(|r| r.slip)
+}
+
 /// `model` with its slip (if it has one) set to the best of [`SLIP_STARTS`] by the
 /// cost, and the evaluations that cost.
 fn slip_start(s: &Setup<'_>, model: TwinModel) -> Result<(TwinModel, usize), FitError> {
     let Some(i) = model.params.iter().position(|p| p.name == "ln_jitter") else {
         return Ok((model, 0));
     };
+    if let Some(slip) = measured_slip(s, &model) {
+        let mut m = model.holding(|j, _| j == i);
+        m.params[i].value = slip.max(MEASURED_SLIP_FLOOR).ln();
+        return Ok((m, 0));
+    }
     let mut best: Option<(f32, TwinModel)> = None;
     for slip in SLIP_STARTS {
         let mut m = model.clone();
