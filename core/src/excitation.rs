@@ -448,7 +448,10 @@ mod tests {
         let step = (jitter / rate).powi(2);
         for (k, var) in [(early, var_early), (late, var_late)] {
             let ratio = var / (k as f64 * step);
-            assert!((0.5..2.0).contains(&ratio), "impact {k}: variance {ratio:.2} × k·(jitter·T)²");
+            assert!(
+                (0.5..2.0).contains(&ratio),
+                "impact {k}: variance {ratio:.2} × k·(jitter·T)²"
+            );
         }
     }
 
