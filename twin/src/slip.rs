@@ -26,6 +26,17 @@ pub struct SlipReading {
     pub base_width_hz: f64,
     /// Teeth read: (harmonic order, full width at half maximum in Hz).
     pub teeth: Vec<(usize, f64)>,
+    /// The impact rate read at, Hz.
+    pub rate_hz: f64,
+}
+
+impl SlipReading {
+    /// Whether the slip read widens the highest tooth read by at least `df_hz` (a
+    /// bin): a smaller slip is one the spectrum cannot tell from none.
+    pub fn resolved(&self, df_hz: f64) -> bool {
+        let k = self.teeth.iter().map(|&(k, _)| k).max().unwrap_or(0);
+        2.0 * std::f64::consts::PI * (k * k) as f64 * self.slip * self.slip * self.rate_hz >= df_hz
+    }
 }
 
 /// Fewest teeth a reading needs.
@@ -125,6 +136,7 @@ pub fn read_slip(
         slip,
         base_width_hz: base,
         teeth: kept,
+        rate_hz,
     })
 }
 

@@ -271,7 +271,15 @@ fn complete_base(
                 mod_hz: f64::from(s.op.freqs.modulation_rate(loc)),
             }]);
         }
-        groups.push(vec![Effect::Slip, Effect::StrengthSpread]);
+        // Slip where the comb's teeth show it, or where no tooth stands to say (see
+        // [`measured_slip`]); where they stand sharp, the spread alone.
+        let df = f64::from(s.sig_res.fs_hz) / s.sig_res.psd_n as f64;
+        let slipless = slip_reading(s, &current.model).is_some_and(|r| !r.resolved(df));
+        if slipless {
+            groups.push(vec![Effect::StrengthSpread]);
+        } else {
+            groups.push(vec![Effect::Slip, Effect::StrengthSpread]);
+        }
         for group in groups {
             if left(evaluations) == 0 {
                 break;
@@ -440,6 +448,11 @@ const MEASURED_SLIP_FLOOR: f64 = 1e-4;
 /// ([`crate::slip::read_slip`], over the line-resolution PSD's compared band), or
 /// `None` where the model has no defect or too few teeth stand.
 fn measured_slip(s: &Setup<'_>, model: &TwinModel) -> Option<f64> {
+    slip_reading(s, model).map(|r| r.slip)
+}
+
+/// The reading behind [`measured_slip`].
+fn slip_reading(s: &Setup<'_>, model: &TwinModel) -> Option<crate::slip::SlipReading> {
     let loc = model.fault?;
     let rate = f64::from(model.op.freqs.impact_rate(loc))
         * (1.0 + model.get("rate_factor").unwrap_or(0.0));
@@ -452,7 +465,6 @@ fn measured_slip(s: &Setup<'_>, model: &TwinModel) -> Option<f64> {
         f64::from(cfg.psd_lo_hz),
         f64::from(cfg.psd_hi_hz),
     )
-    .map(|r| r.slip)
 }
 
 /// `model` with its slip (if it has one) set to the best of [`SLIP_STARTS`] by the
