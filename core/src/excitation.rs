@@ -3,7 +3,7 @@
 //!
 //! ```text
 //! F_impact(t) = Σ_n A_n · exp(−(t − t_n)² / (2σ²))                     (18)
-//!   t_{n+1} = t_n + T_impact·max(½, 1 + jitter·z_n),   z_n ~ N(0, 1)
+//!   t_n = t_1 + n·T_impact + ε_n,   ε_n ~ N(0, (jitter·T_impact)²)
 //!   A_n = A_impact · (1 − δ + δ·(1 + cos 2π f_mod t_n)/2)
 //! F_sin(t)    = A_sin · sin(2π f_rot t + φ)                            (19)
 //! F_rand(t)   = σ_w · w(t) + Σ_m B_m · exp(−(t − τ_m)² / (2σ_p²))
@@ -16,17 +16,7 @@
 //! amplitude modulation `δ` (load zone: a rotating inner-race defect passes through
 //! the loaded zone once per revolution) and the timing jitter (rolling-element slip,
 //! 1–2 % in real bearings) are the two standard refinements; both default to zero so
-//! the plain eq. 18 is the default.
-//!
-//! **Slip is a renewal process** (Antoni & Randall's model of a localized fault: each
-//! interval between impacts is the period give or take its own random part). The
-//! rolling elements' lag behind their kinematic positions accumulates — nothing pulls
-//! the cage back onto a grid — so an impact's time wanders from `t_1 + n·T` as a random
-//! walk, and the train's k-th harmonic broadens into a Lorentzian about
-//! `π·k²·jitter²·rate` Hz wide. An independent jitter about a fixed grid (this
-//! module's model before) keeps every harmonic a sharp line over a flat pedestal,
-//! which no measured bearing shows: on the randomized benchmark the records' comb
-//! teeth at 2–3 kHz had skirts ~10 dB above the model's ±10 Hz about each tooth. The angular DOF receives the same force times a
+//! the plain eq. 18 is the default. The angular DOF receives the same force times a
 //! moment-arm share `s_θ` (the paper does not say how the force splits between DOFs).
 //!
 //! Impacts and pulses are truncated at ±8σ (the Gaussian is < 1.3e−14 there).
@@ -37,8 +27,8 @@ use crate::rng::Xoshiro128pp;
 
 const PULSE_HALF_WIDTH_SIGMAS: f64 = 8.0;
 
-/// Shortest interval between slipping impacts, a fraction of the period: a draw of
-/// the jitter cannot bring two impacts together or reverse their order.
+/// Shortest interval between walking impacts, a fraction of the period: a draw of
+/// the walk cannot bring two impacts together or reverse their order.
 const MIN_INTERVAL_REL: f64 = 0.5;
 
 /// Uniform time grid `t_j = t0 + j·dt`.
@@ -94,10 +84,17 @@ pub struct ImpactTrain {
     pub modulation_depth: f64,
     /// Modulation rate `f_mod`, Hz (shaft rate for an inner-race defect).
     pub modulation_hz: f64,
-    /// Timing jitter (slip): each interval between impacts is the period times
-    /// `max(½, 1 + jitter·z)`, z standard normal, so the impacts' times wander as a
-    /// random walk (0: strictly periodic). See the module's docs.
+    /// Timing jitter about the grid, a fraction of the period (0: strictly periodic):
+    /// each impact early or late by its own `jitter·T·z`, z standard normal, as a
+    /// rolling element's play in its cage pocket times it while the cage keeps the
+    /// grid.
     pub jitter: f64,
+    /// Slip, a fraction of the period: each interval between impacts is also
+    /// `T·walk·z` longer or shorter, so the impacts wander from the grid as a random
+    /// walk (Antoni & Randall's renewal process: nothing pulls the train back), and the
+    /// k-th harmonic broadens into a Lorentzian `2π·k²·walk²·rate` Hz wide (full
+    /// width). 0: the train keeps its grid.
+    pub walk: f64,
     /// Spread of the impact strengths: each impact's amplitude is multiplied by
     /// `max(0, 1 + spread · z)`, z standard normal (0: every impact alike). Real
     /// bearings' impacts vary by 5–30 % (Randall & Antoni 2011, §2): the rolling
@@ -119,6 +116,7 @@ impl ImpactTrain {
             modulation_depth: 0.0,
             modulation_hz: 0.0,
             jitter: 0.0,
+            walk: 0.0,
             amplitude_spread: 0.0,
             rate_drift_per_s: 0.0,
         }
@@ -133,6 +131,7 @@ impl ImpactTrain {
             self.modulation_depth,
             self.modulation_hz,
             self.jitter,
+            self.walk,
             self.amplitude_spread,
             self.rate_drift_per_s,
         ];
@@ -144,10 +143,11 @@ impl ImpactTrain {
         }
         if !(0.0..=1.0).contains(&self.modulation_depth)
             || self.jitter < 0.0
+            || self.walk < 0.0
             || self.amplitude_spread < 0.0
         {
             return Err(Error::InvalidParameter(
-                "modulation depth in [0,1], jitter >= 0, amplitude spread >= 0",
+                "modulation depth in [0,1], jitter and walk >= 0, amplitude spread >= 0",
             ));
         }
         Ok(())
@@ -168,7 +168,7 @@ impl ImpactTrain {
             return Ok(());
         }
         let period = 1.0 / self.rate_hz;
-        let margin = PULSE_HALF_WIDTH_SIGMAS * self.sigma_s;
+        let margin = PULSE_HALF_WIDTH_SIGMAS * self.sigma_s + 6.0 * self.jitter * period;
         let t_end = grid.t0 + out.len() as f64 * grid.dt;
         let d = self.rate_drift_per_s;
         // Warped time τ(t) = t + ½·d·t²: impacts sit at τ(t_n) = t_1 + n·T, so the rate
@@ -187,24 +187,28 @@ impl ImpactTrain {
                 }
             }
         };
-        // Without slip the train starts at the grid; with it every impact from the
-        // first is drawn (slip is a renewal process: where an impact lands depends on
-        // every interval before it), its intervals' deviations summed in `walk`.
+        // With a walk every impact from the first is drawn (where an impact lands
+        // depends on every interval before it), its intervals' deviations summed in
+        // `wander`; without one the train starts at the grid and draws as before.
         let mut n = 0.0;
-        if self.jitter == 0.0 {
+        if self.walk == 0.0 {
             let tau_lo = warp((grid.t0 - margin).max(0.0).min(grid.t0 - margin));
             n = (math::floor((tau_lo - self.first_impact_s) / period) + 1.0).max(0.0);
         }
-        let mut walk = 0.0;
+        let mut wander = 0.0;
         loop {
-            let t_n = unwarp(self.first_impact_s + n * period + walk);
-            if t_n > t_end + margin || !t_n.is_finite() {
+            let nominal = unwarp(self.first_impact_s + n * period + wander);
+            if nominal > t_end + margin || !nominal.is_finite() {
                 break;
             }
-            n += 1.0;
-            if self.jitter > 0.0 {
-                walk += period * ((1.0 + self.jitter * rng.normal()).max(MIN_INTERVAL_REL) - 1.0);
+            if self.walk > 0.0 {
+                wander += period * ((1.0 + self.walk * rng.normal()).max(MIN_INTERVAL_REL) - 1.0);
             }
+            let t_n = if self.jitter > 0.0 {
+                nominal + self.jitter * period * rng.normal()
+            } else {
+                nominal
+            };
             let depth = self.modulation_depth;
             let mut am = 1.0 - depth
                 + depth * 0.5 * (1.0 + math::cos(2.0 * math::PI * self.modulation_hz * warp(t_n)));
@@ -214,6 +218,7 @@ impl ImpactTrain {
                 am *= (1.0 + self.amplitude_spread * rng.normal()).max(0.0);
             }
             add_gaussian_pulse(out, grid, t_n, self.sigma_s, weight * self.amplitude * am);
+            n += 1.0;
         }
         Ok(())
     }
@@ -417,40 +422,50 @@ mod tests {
         );
     }
 
-    /// Slip is a renewal process: the offset of impact k from the grid `t_1 + k·T` is a
-    /// random walk, its variance `k·(jitter·T)²` (an independent jitter about the grid
-    /// would keep it at `(jitter·T)²` for every k).
+    /// A walk is a renewal process: the offset of impact k from the grid `t_1 + k·T`
+    /// is a random walk, its variance `k·(walk·T)²`, where a jitter about the grid
+    /// keeps it at `(jitter·T)²` for every k.
     #[test]
-    fn slip_wanders_as_a_random_walk() {
-        let (rate, jitter) = (100.0, 0.02);
-        let train = ImpactTrain {
+    fn a_walk_wanders_and_a_jitter_does_not() {
+        let rate = 100.0;
+        let offsets_var = |train: ImpactTrain, k: usize| -> f64 {
+            let grid = TimeGrid { t0: 0.0, dt: 1e-5 };
+            let seeds = 40;
+            let mut var = 0.0;
+            for seed in 0..seeds {
+                let mut out = vec![0.0; 110_000]; // 1.1 s: 110 impacts
+                train
+                    .add_to(grid, 1.0, &mut out, &mut Xoshiro128pp::seed_from_u64(seed))
+                    .unwrap();
+                let peaks: std::vec::Vec<f64> = (1..out.len() - 1)
+                    .filter(|&j| out[j] > out[j - 1] && out[j] >= out[j + 1] && out[j] > 0.5)
+                    .map(|j| j as f64 * grid.dt)
+                    .collect();
+                var += (peaks[k] - (0.005 + k as f64 / rate)).powi(2) / seeds as f64;
+            }
+            var
+        };
+        let base = ImpactTrain {
             first_impact_s: 0.005,
-            jitter,
             ..ImpactTrain::periodic(1.0, rate, 2e-5)
         };
-        let grid = TimeGrid { t0: 0.0, dt: 1e-5 };
-        let (early, late) = (4usize, 100usize);
-        let (mut var_early, mut var_late) = (0.0, 0.0);
-        let seeds = 40;
-        for seed in 0..seeds {
-            let mut out = vec![0.0; 110_000]; // 1.1 s: 110 impacts
-            train
-                .add_to(grid, 1.0, &mut out, &mut Xoshiro128pp::seed_from_u64(seed))
-                .unwrap();
-            let peaks: std::vec::Vec<f64> = (1..out.len() - 1)
-                .filter(|&j| out[j] > out[j - 1] && out[j] >= out[j + 1] && out[j] > 0.5)
-                .map(|j| j as f64 * grid.dt)
-                .collect();
-            let offset = |k: usize| peaks[k] - (0.005 + k as f64 / rate);
-            var_early += offset(early).powi(2) / seeds as f64;
-            var_late += offset(late).powi(2) / seeds as f64;
-        }
-        let step = (jitter / rate).powi(2);
-        for (k, var) in [(early, var_early), (late, var_late)] {
-            let ratio = var / (k as f64 * step);
+        let step = (0.02 / rate).powi(2);
+        for k in [4usize, 100] {
+            let walk = offsets_var(ImpactTrain { walk: 0.02, ..base }, k) / (k as f64 * step);
+            let jitter = offsets_var(
+                ImpactTrain {
+                    jitter: 0.02,
+                    ..base
+                },
+                k,
+            ) / step;
             assert!(
-                (0.5..2.0).contains(&ratio),
-                "impact {k}: variance {ratio:.2} × k·(jitter·T)²"
+                (0.5..2.0).contains(&walk),
+                "impact {k}: walk variance {walk:.2} × k·(walk·T)²"
+            );
+            assert!(
+                (0.5..2.0).contains(&jitter),
+                "impact {k}: jitter variance {jitter:.2} × (jitter·T)²"
             );
         }
     }

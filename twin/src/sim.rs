@@ -202,6 +202,7 @@ impl SimulationSpec {
                 modulation_depth: depth,
                 modulation_hz: mod_hz,
                 jitter: self.jitter,
+                walk: 0.0,
                 amplitude_spread: 0.0,
                 rate_drift_per_s: self.extra.speed_drift_per_s,
             },

@@ -73,6 +73,10 @@ pub const IMPACT_SIGMA_S: f64 = 2.0e-5;
 /// against 0.27); from this one it moves.
 pub const SLIP_STEP: f64 = 0.3;
 
+/// The walk (`ln_walk`, the slip that accumulates) of a model whose record resolves
+/// none: rendered as none at all.
+pub const WALK_NONE: f64 = 1e-6;
+
 /// Highest natural frequency a mode is simulated at, as a share of the record's rate:
 /// a mode past the compared band's top shows only as the rise into it, so a fit may
 /// push it on where the cost no longer sees it; at the RK4 step (four per sample) this
@@ -233,6 +237,9 @@ impl TwinModel {
             };
             let step = if name == "ln_jitter" {
                 SLIP_STEP
+            } else if name == "ln_walk" {
+                // A reading of the record's comb, held (see `first_fit`).
+                0.0
             } else if name.starts_with("ln_") || name.starts_with("logit_") {
                 1e-2
             } else {
@@ -666,6 +673,12 @@ impl TwinModel {
         let jitter = self
             .effect_params(EffectKind::Slip)
             .map_or(0.0, |(_, p)| p[0].value.exp().min(0.2));
+        let walk = self
+            .effect_params(EffectKind::Slip)
+            .and_then(|(_, p)| p.get(1))
+            .map(|q| q.value.exp())
+            .filter(|&w| w > 10.0 * WALK_NONE)
+            .map_or(0.0, |w| w.min(0.2));
         let spread = self
             .effect_params(EffectKind::StrengthSpread)
             .map_or(0.0, |(_, p)| p[0].value.exp().min(1.0));
@@ -678,6 +691,7 @@ impl TwinModel {
                 modulation_depth: depth,
                 modulation_hz: mod_hz * centre,
                 jitter,
+                walk,
                 amplitude_spread: spread,
                 rate_drift_per_s: drift,
             },
@@ -715,6 +729,7 @@ impl TwinModel {
                 drift,
                 centre,
                 jitter,
+                walk,
                 spread,
             },
             &mut force_r,
@@ -746,6 +761,7 @@ impl TwinModel {
             drift,
             centre,
             jitter,
+            walk,
             spread,
         } = *fc;
         let get = |n: &str| self.get(n);
@@ -822,6 +838,7 @@ impl TwinModel {
                     modulation_depth: depth,
                     modulation_hz: mod_hz,
                     jitter: if bearing_defect { jitter } else { 0.0 },
+                    walk: if bearing_defect { walk } else { 0.0 },
                     amplitude_spread: if bearing_defect { spread } else { 0.0 },
                     rate_drift_per_s: drift,
                 };
@@ -982,7 +999,8 @@ struct Structure {
 
 /// What the forces of one rendering share: the time grid, the seed of the common
 /// random numbers, the drift-centred shaft rate, the drift, the centring factor, the
-/// slip jitter of rolling elements and the spread of their impacts' strengths.
+/// slip jitter of rolling elements, the walk of their timing and the spread of their
+/// impacts' strengths.
 #[derive(Debug, Clone, Copy)]
 struct ForceContext {
     grid: TimeGrid,
@@ -991,6 +1009,7 @@ struct ForceContext {
     drift: f64,
     centre: f64,
     jitter: f64,
+    walk: f64,
     spread: f64,
 }
 
