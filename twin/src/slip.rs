@@ -46,7 +46,7 @@ impl SlipReading {
 const MIN_TEETH: usize = 4;
 
 /// How far a tooth must stand above its neighbourhood (power ratio, 6 dB).
-const MIN_TOOTH_RATIO: f32 = 4.0;
+const MIN_TOOTH_RATIO: f32 = 10.0;
 
 /// Full width at half maximum of a Voigt-like profile: a Lorentzian of width `l`
 /// seen through a kernel of width `g` (Olivero & Longbothum's approximation, within
