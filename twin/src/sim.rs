@@ -62,8 +62,7 @@ pub struct SimulationSpec {
     pub impact_sigma_s: f64,
     /// Load-zone modulation depth for inner-race and ball defects (0..1).
     pub modulation_depth: f64,
-    /// Impact timing jitter as a fraction of the period (slip): each interval between
-    /// impacts is jittered, so the impacts wander as a random walk.
+    /// Impact timing jitter about the grid as a fraction of the period (slip).
     pub jitter: f64,
     /// Unbalance force at the shaft rate, N.
     pub unbalance_n: f64,

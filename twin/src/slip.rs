@@ -7,9 +7,11 @@
 //! the period, `r` the impact rate; derivation: near `k·r` the renewal spectrum
 //! `Re[(1 + φ)/(1 − φ)]`, `φ` the interval's characteristic function, is a Lorentzian
 //! of half width `(2πk·r)²·(s/r)²/2` rad/s). The width grows as k², which sets slip
-//! apart from everything else that widens a tooth by the same amount at every k: the
-//! spectral window, a slow modulation's sidebands (a pulsating load's ±2.7 Hz about
-//! every tooth), a speed that breathes.
+//! apart from what widens every tooth alike (the spectral window, a slow modulation's
+//! sidebands: a pulsating load's ±2.7 Hz about every tooth) and from a speed that
+//! drifts or breathes, which widens tooth k by k times the rate's spread. In the twin
+//! this is the slip effect's `walk` ([`pumptwin_core::excitation`]); a jitter about
+//! the grid, which leaves the teeth sharp, is fitted beside it.
 //!
 //! Why a reading and not a fit parameter: a simulated train with a slip is one
 //! realization of the walk, and a change of the slip moves every late impact, so the
@@ -45,7 +47,11 @@ impl SlipReading {
 /// Fewest teeth a reading needs.
 const MIN_TEETH: usize = 4;
 
-/// How far a tooth must stand above its neighbourhood (power ratio, 6 dB).
+/// How far a tooth must stand above its neighbourhood (power ratio, 10 dB). A tooth
+/// barely over the floor is cut at a half maximum inside the spectrum's scatter and
+/// reads wide: the twin's own generator, jittering about the grid by 1.2 %, leaves
+/// teeth 7–22 standing, the last two 6–8 dB over the pedestal and read 40 % wide,
+/// which a 6 dB threshold took for a 0.3 % walk.
 const MIN_TOOTH_RATIO: f32 = 10.0;
 
 /// Full width at half maximum of a Voigt-like profile: a Lorentzian of width `l`
@@ -56,7 +62,8 @@ fn voigt_width(l: f64, g: f64) -> f64 {
 }
 
 /// The full width at half maximum of the tooth nearest `centre_hz` in `psd` (linear
-/// power, bin width `df` Hz) within `±half_hz`, over the lower quartile of that span;
+/// power, bin width `df` Hz) within `±half_hz`, over the lowest tenth of that span
+/// (below the neighbouring teeth's Lorentzian tails, which a quartile would reach);
 /// `None` where no tooth stands [`MIN_TOOTH_RATIO`] over it or the tooth reaches the
 /// span's edge (teeth merged).
 fn tooth_width(psd: &[f32], df: f64, centre_hz: f64, half_hz: f64) -> Option<f64> {

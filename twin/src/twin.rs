@@ -33,7 +33,7 @@
 //! | `half_orders` | eq. 19 sinusoids at (k + ½)·f_r in the force: a loose mount or a rub, the rotor lifting or striking once every two turns | ln A per half order |
 //! | `shaft_order_tones` | output-side sinusoids at k·f_r: a tone that reaches the sensor by another path than the bearing's contact (a pump's vane pass, a coupling's or gear's mesh), so it loads no rolling element | ln A_k per order |
 //! | `load_zone_modulation` | impact amplitude × (1 − δ + δ(1 + cos 2πf_mod t)/2) | logit δ |
-//! | `slip` | random impact timing: each interval T·(1 + jitter·z), so the impacts wander as a random walk (a renewal process, [`pumptwin_core::excitation`]) | ln jitter |
+//! | `slip` | random impact timing: each impact `jitter·T·z` about the grid (a rolling element's play in its cage pocket), and each interval `walk·T·z` longer or shorter, so the impacts wander as a random walk (the cage's speed; a renewal process, [`pumptwin_core::excitation`]) | ln jitter (fitted), ln walk (held at the reading of the record's comb, [`crate::slip`]) |
 //! | `load_zone` | each impact × Harris's zone (1 − (1 − cos θ)/2ε)^{3/2}, θ turning at the shaft (inner race) or cage (ball) rate (base only) | ln ε |
 //! | `strength_spread` | each impact's amplitude × max(0, 1 + s·z) (base only: the first fit adds it, no tracer proposes it) | ln s |
 //! | `speed_drift` | rate × (1 + d·t) for impacts and shaft terms | d |
