@@ -300,7 +300,7 @@ impl Effect {
             Effect::LoadZone { .. } => vec![("ln_zone_eps".into(), 0.5f64.ln())],
             Effect::Slip => vec![
                 ("ln_jitter".into(), (0.005f64).ln()),
-                ("ln_walk".into(), crate::twin::WALK_NONE.ln()),
+                ("ln_walk".into(), crate::slip::WALK_NONE.ln()),
             ],
             Effect::StrengthSpread => vec![("ln_spread".into(), (0.15f64).ln())],
             Effect::SpeedDrift { initial_per_s, .. } => {

@@ -19,6 +19,10 @@
 //! scatter — a fit leaves the slip where it starts, and a scan of starts picks the
 //! realization that happens to match (a slipless record read as 0.2 % slip).
 
+/// The walk (the slip effect's `ln_walk`) of a model whose record resolves none:
+/// rendered as none at all.
+pub const WALK_NONE: f64 = 1e-6;
+
 /// A slip read off the teeth of a comb.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SlipReading {

@@ -73,10 +73,6 @@ pub const IMPACT_SIGMA_S: f64 = 2.0e-5;
 /// against 0.27); from this one it moves.
 pub const SLIP_STEP: f64 = 0.3;
 
-/// The walk (`ln_walk`, the slip that accumulates) of a model whose record resolves
-/// none: rendered as none at all.
-pub const WALK_NONE: f64 = 1e-6;
-
 /// Highest natural frequency a mode is simulated at, as a share of the record's rate:
 /// a mode past the compared band's top shows only as the rise into it, so a fit may
 /// push it on where the cost no longer sees it; at the RK4 step (four per sample) this
@@ -677,7 +673,7 @@ impl TwinModel {
             .effect_params(EffectKind::Slip)
             .and_then(|(_, p)| p.get(1))
             .map(|q| q.value.exp())
-            .filter(|&w| w > 10.0 * WALK_NONE)
+            .filter(|&w| w > 10.0 * crate::slip::WALK_NONE)
             .map_or(0.0, |w| w.min(0.2));
         let spread = self
             .effect_params(EffectKind::StrengthSpread)
