@@ -119,10 +119,10 @@ fn tooth_width(psd: &[f32], df: f64, centre_hz: f64, half_hz: f64) -> Option<f64
 
 /// Read the slip of impacts at `rate_hz` off the teeth of their comb in `psd` (linear
 /// power, bin width `df_hz`) between `lo_hz` and `hi_hz`: each tooth that stands
-/// clear of its neighbourhood is measured at half maximum, and the slip, a width
-/// common to every tooth and a spread of the rate are the three whose widths
-/// `voigt(2π·k²·s²·r, √(base² + (k·wander)²))` come closest to the measured ones
-/// (least squares over a grid: slip 0 and 0.05–4.5 % in 4 % steps, or wander
+/// clear of its neighbourhood is measured at half maximum, and either a slip or a
+/// wander of the rate, over a width common to every tooth, is the reading whose
+/// widths `voigt(2π·k²·s²·r, √(base² + (k·wander)²))` come closest to the measured
+/// ones (least squares over a grid: slip 0 and 0.05–4.7 % in 4 % steps, or wander
 /// 0.01–10 bins, each over a base of 0.5–8 bins: see [`widths_fit`]). `None` where fewer
 /// than [`MIN_TEETH`] teeth stand (the comb is too weak, or so smeared that no
 /// tooth is left: then the slip is large, but how large is not read here).
@@ -306,6 +306,17 @@ mod tests {
                 got.teeth
             );
         }
+    }
+
+    /// A spectrum with nothing to read (silence, NaN, too short, a rate under eight
+    /// bins) gives no reading and no panic.
+    #[test]
+    fn nothing_to_read_is_no_reading() {
+        let df = FS / 4096.0;
+        assert!(read_slip(&vec![0.0; 2049], df, 107.0, 20.0, 4600.0).is_none());
+        assert!(read_slip(&vec![f32::NAN; 2049], df, 107.0, 20.0, 4600.0).is_none());
+        assert!(read_slip(&[1.0; 10], df, 107.0, 20.0, 4600.0).is_none());
+        assert!(read_slip(&vec![1.0; 2049], df, 5.0 * df, 20.0, 4600.0).is_none());
     }
 
     /// A speed that drifts widens tooth k by k times the rate's spread, not k²: 0.5 %
