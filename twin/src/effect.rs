@@ -298,7 +298,10 @@ impl Effect {
             // ε = ½ (a zone of ±90°, zero clearance) to start; above 1 every angle
             // carries load (a preload, a heavy rotor), the zone a partial modulation.
             Effect::LoadZone { .. } => vec![("ln_zone_eps".into(), 0.5f64.ln())],
-            Effect::Slip => vec![("ln_jitter".into(), (0.005f64).ln())],
+            Effect::Slip => vec![
+                ("ln_jitter".into(), (0.005f64).ln()),
+                ("ln_walk".into(), crate::slip::WALK_NONE.ln()),
+            ],
             Effect::StrengthSpread => vec![("ln_spread".into(), (0.15f64).ln())],
             Effect::SpeedDrift { initial_per_s, .. } => {
                 vec![("drift_per_s".into(), *initial_per_s)]

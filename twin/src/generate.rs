@@ -203,6 +203,7 @@ pub fn generate(
                 modulation_depth: depth,
                 modulation_hz: shaft,
                 jitter: 0.0,
+                walk: 0.0,
                 amplitude_spread: 0.0,
                 rate_drift_per_s: 0.0,
             }];

@@ -37,5 +37,6 @@ pub mod residual;
 pub mod ringdown;
 pub mod signature;
 pub mod sim;
+pub mod slip;
 pub mod trace;
 pub mod twin;

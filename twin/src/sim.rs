@@ -62,7 +62,7 @@ pub struct SimulationSpec {
     pub impact_sigma_s: f64,
     /// Load-zone modulation depth for inner-race and ball defects (0..1).
     pub modulation_depth: f64,
-    /// Impact timing jitter as a fraction of the period (slip).
+    /// Impact timing jitter about the grid as a fraction of the period (slip).
     pub jitter: f64,
     /// Unbalance force at the shaft rate, N.
     pub unbalance_n: f64,
@@ -201,6 +201,7 @@ impl SimulationSpec {
                 modulation_depth: depth,
                 modulation_hz: mod_hz,
                 jitter: self.jitter,
+                walk: 0.0,
                 amplitude_spread: 0.0,
                 rate_drift_per_s: self.extra.speed_drift_per_s,
             },

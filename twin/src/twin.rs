@@ -33,7 +33,7 @@
 //! | `half_orders` | eq. 19 sinusoids at (k + ½)·f_r in the force: a loose mount or a rub, the rotor lifting or striking once every two turns | ln A per half order |
 //! | `shaft_order_tones` | output-side sinusoids at k·f_r: a tone that reaches the sensor by another path than the bearing's contact (a pump's vane pass, a coupling's or gear's mesh), so it loads no rolling element | ln A_k per order |
 //! | `load_zone_modulation` | impact amplitude × (1 − δ + δ(1 + cos 2πf_mod t)/2) | logit δ |
-//! | `slip` | random impact timing, σ = jitter·T | ln jitter |
+//! | `slip` | random impact timing: each impact `jitter·T·z` about the grid (a rolling element's play in its cage pocket), and each interval `walk·T·z` longer or shorter, so the impacts wander as a random walk (the cage's speed; a renewal process, [`pumptwin_core::excitation`]) | ln jitter (fitted), ln walk (held at the reading of the record's comb, [`crate::slip`]) |
 //! | `load_zone` | each impact × Harris's zone (1 − (1 − cos θ)/2ε)^{3/2}, θ turning at the shaft (inner race) or cage (ball) rate (base only) | ln ε |
 //! | `strength_spread` | each impact's amplitude × max(0, 1 + s·z) (base only: the first fit adds it, no tracer proposes it) | ln s |
 //! | `speed_drift` | rate × (1 + d·t) for impacts and shaft terms | d |
@@ -233,6 +233,9 @@ impl TwinModel {
             };
             let step = if name == "ln_jitter" {
                 SLIP_STEP
+            } else if name == "ln_walk" {
+                // A reading of the record's comb, held (see `first_fit`).
+                0.0
             } else if name.starts_with("ln_") || name.starts_with("logit_") {
                 1e-2
             } else {
@@ -666,6 +669,12 @@ impl TwinModel {
         let jitter = self
             .effect_params(EffectKind::Slip)
             .map_or(0.0, |(_, p)| p[0].value.exp().min(0.2));
+        let walk = self
+            .effect_params(EffectKind::Slip)
+            .and_then(|(_, p)| p.get(1))
+            .map(|q| q.value.exp())
+            .filter(|&w| w > 10.0 * crate::slip::WALK_NONE)
+            .map_or(0.0, |w| w.min(0.2));
         let spread = self
             .effect_params(EffectKind::StrengthSpread)
             .map_or(0.0, |(_, p)| p[0].value.exp().min(1.0));
@@ -678,6 +687,7 @@ impl TwinModel {
                 modulation_depth: depth,
                 modulation_hz: mod_hz * centre,
                 jitter,
+                walk,
                 amplitude_spread: spread,
                 rate_drift_per_s: drift,
             },
@@ -715,6 +725,7 @@ impl TwinModel {
                 drift,
                 centre,
                 jitter,
+                walk,
                 spread,
             },
             &mut force_r,
@@ -746,6 +757,7 @@ impl TwinModel {
             drift,
             centre,
             jitter,
+            walk,
             spread,
         } = *fc;
         let get = |n: &str| self.get(n);
@@ -822,6 +834,7 @@ impl TwinModel {
                     modulation_depth: depth,
                     modulation_hz: mod_hz,
                     jitter: if bearing_defect { jitter } else { 0.0 },
+                    walk: if bearing_defect { walk } else { 0.0 },
                     amplitude_spread: if bearing_defect { spread } else { 0.0 },
                     rate_drift_per_s: drift,
                 };
@@ -982,7 +995,8 @@ struct Structure {
 
 /// What the forces of one rendering share: the time grid, the seed of the common
 /// random numbers, the drift-centred shaft rate, the drift, the centring factor, the
-/// slip jitter of rolling elements and the spread of their impacts' strengths.
+/// slip jitter of rolling elements, the walk of their timing and the spread of their
+/// impacts' strengths.
 #[derive(Debug, Clone, Copy)]
 struct ForceContext {
     grid: TimeGrid,
@@ -991,6 +1005,7 @@ struct ForceContext {
     drift: f64,
     centre: f64,
     jitter: f64,
+    walk: f64,
     spread: f64,
 }
 
