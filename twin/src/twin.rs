@@ -283,6 +283,12 @@ impl TwinModel {
         self.params.iter().find(|p| p.name == name).map(|p| p.value)
     }
 
+    /// The impact rate of a defect at `loc` as this model places its comb, Hz: the
+    /// geometry's rate times `1 + rate_factor` (the comb's measured offset).
+    pub fn comb_rate_hz(&self, loc: DefectLocation) -> f64 {
+        f64::from(self.op.freqs.impact_rate(loc)) * (1.0 + self.get("rate_factor").unwrap_or(0.0))
+    }
+
     /// This model with the structure's response high-passed at `f_hz` (`ln_floor_hz`,
     /// a base parameter placed after the base's others; see the module's docs), or
     /// that corner set where the model has one.

@@ -452,12 +452,10 @@ fn with_measured_walk(s: &Setup<'_>, mut model: TwinModel) -> TwinModel {
     let cfg = &s.sig_res;
     let df = f64::from(cfg.fs_hz) / cfg.psd_n as f64;
     let reading = model.fault.and_then(|loc| {
-        let rate = f64::from(model.op.freqs.impact_rate(loc))
-            * (1.0 + model.get("rate_factor").unwrap_or(0.0));
         crate::slip::read_slip(
             &s.target_res.meas.psd,
             df,
-            rate,
+            model.comb_rate_hz(loc),
             f64::from(cfg.psd_lo_hz),
             f64::from(cfg.psd_hi_hz),
         )

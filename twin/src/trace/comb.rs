@@ -87,8 +87,7 @@ pub(super) fn trace(ctx: &TraceContext<'_>, out: &mut Vec<Candidate>) {
     if let Some(loc) = model.fault {
         if !has(model, EffectKind::SpeedDrift) {
             let slipping = has(model, EffectKind::Slip);
-            let rate = f64::from(model.op.freqs.impact_rate(loc))
-                * (1.0 + model.get("rate_factor").unwrap_or(0.0));
+            let rate = model.comb_rate_hz(loc);
             let cm = comb_contrast(&ctx.meas_psd_db, ctx.cfg, rate);
             let cs = comb_contrast(&ctx.sim_psd_db, ctx.cfg, rate);
             let n = cm.len().min(cs.len());

@@ -51,7 +51,7 @@ pub fn second_train(
     let shaft = f64::from(freqs.shaft);
     let own = model.fault.map(|loc| {
         (
-            f64::from(freqs.impact_rate(loc)) * (1.0 + model.get("rate_factor").unwrap_or(0.0)),
+            model.comb_rate_hz(loc),
             f64::from(freqs.modulation_rate(loc)),
         )
     });

@@ -67,8 +67,7 @@ impl<'a> LineTracer<'a> {
             let Some(loc) = model.fault else {
                 return false;
             };
-            let fd = f64::from(model.op.freqs.impact_rate(loc))
-                * (1.0 + model.get("rate_factor").unwrap_or(0.0));
+            let fd = model.comb_rate_hz(loc);
             let fm = f64::from(model.op.freqs.modulation_rate(loc));
             if fm <= 0.0 || modulated_at(model, fm) {
                 return false;
