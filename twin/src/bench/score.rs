@@ -7,7 +7,9 @@
 //!
 //! - **true**: an injection of the case accepts its name ([`Injection::accepted`]);
 //!   an `extra_resonance` only where it names the injected mode's frequency within
-//!   [`MODE_TOLERANCE`] (a mode anywhere else is not that mode);
+//!   [`MODE_TOLERANCE`] (a mode anywhere else is not that mode), a
+//!   `second_impact_train` or a `load_zone_modulation` only at the injected rate
+//!   within [`RATE_TOLERANCE`];
 //! - **a base property named as an effect**: true of the record but part of what every
 //!   bearing signal has, so not what the machine adds ([`base_property`]): slip on a
 //!   record with a defect, a load zone at the rate of the defect's own (shaft for an
@@ -22,7 +24,11 @@ use crate::twin::Effect;
 /// How close a claimed mode must lie to a true one, relative.
 pub const MODE_TOLERANCE: f64 = 0.05;
 
-/// How close a claimed load zone's rate must lie to the defect's own, relative.
+/// How close a claimed rate must lie to the true one, relative: a load zone's to the
+/// defect's own, a second train's to the compound's, a modulation's to the injected
+/// one's. The loop names a rate for a defect within the same 3 % (rolling elements
+/// slip by 1–2 %); a train or a modulation at another rate is another effect, and a
+/// false claim.
 const RATE_TOLERANCE: f64 = 0.03;
 
 /// One claim of a report: its name and the effect behind it (none for `clipping` and
@@ -121,6 +127,13 @@ pub fn names(claim: &Claim, inj: &Injection) -> bool {
     match (inj, &claim.effect) {
         (Injection::ExtraMode { mode }, Some(Effect::ExtraResonance { f_hz })) => {
             near(*f_hz, mode.f_hz, MODE_TOLERANCE)
+        }
+        (
+            Injection::Compound { rate_hz, .. },
+            Some(Effect::SecondImpactTrain { rate_hz: r, .. }),
+        ) => near(*r, *rate_hz, RATE_TOLERANCE),
+        (Injection::Modulation { f_hz, .. }, Some(Effect::LoadZoneModulation { mod_hz })) => {
+            near(*mod_hz, *f_hz, RATE_TOLERANCE)
         }
         _ => true,
     }
@@ -583,6 +596,45 @@ mod tests {
             error: None,
             case,
         }
+    }
+
+    /// A second train names a compound, and a modulation an injected one, only at
+    /// its rate: elsewhere it is another effect, found nowhere and false.
+    #[test]
+    fn a_rate_is_part_of_the_claim() {
+        let compound = Injection::Compound {
+            defect: Defect::InnerRace,
+            rel: 0.3,
+            rate_hz: 160.0,
+        };
+        let train = |rate_hz: f64| {
+            claim(
+                "second_impact_train",
+                Some(Effect::SecondImpactTrain {
+                    rate_hz,
+                    source: "inner_race".into(),
+                }),
+            )
+        };
+        let right = outcome(Some(Defect::OuterRace), vec![compound.clone()], &[train(161.0)]);
+        assert_eq!((right.found.clone(), right.false_claims.len()), (vec![true], 0));
+        let wrong = outcome(Some(Defect::OuterRace), vec![compound], &[train(110.0)]);
+        assert_eq!(wrong.found, [false]);
+        assert_eq!(wrong.false_claims, ["second_impact_train"]);
+        let modulation = Injection::Modulation {
+            f_hz: 7.0,
+            depth: 0.3,
+        };
+        let lzm = |mod_hz: f64| {
+            claim(
+                "load_zone_modulation",
+                Some(Effect::LoadZoneModulation { mod_hz }),
+            )
+        };
+        let o = outcome(Some(Defect::OuterRace), vec![modulation.clone()], &[lzm(7.1)]);
+        assert_eq!(o.found, [true]);
+        let o = outcome(Some(Defect::OuterRace), vec![modulation], &[lzm(10.0)]);
+        assert_eq!((o.found.clone(), o.false_claims.len()), (vec![false], 1));
     }
 
     /// A control with random bursts claimed counts against the false-claim rate; an
