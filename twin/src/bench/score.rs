@@ -616,8 +616,15 @@ mod tests {
                 }),
             )
         };
-        let right = outcome(Some(Defect::OuterRace), vec![compound.clone()], &[train(161.0)]);
-        assert_eq!((right.found.clone(), right.false_claims.len()), (vec![true], 0));
+        let right = outcome(
+            Some(Defect::OuterRace),
+            vec![compound.clone()],
+            &[train(161.0)],
+        );
+        assert_eq!(
+            (right.found.clone(), right.false_claims.len()),
+            (vec![true], 0)
+        );
         let wrong = outcome(Some(Defect::OuterRace), vec![compound], &[train(110.0)]);
         assert_eq!(wrong.found, [false]);
         assert_eq!(wrong.false_claims, ["second_impact_train"]);
@@ -631,7 +638,11 @@ mod tests {
                 Some(Effect::LoadZoneModulation { mod_hz }),
             )
         };
-        let o = outcome(Some(Defect::OuterRace), vec![modulation.clone()], &[lzm(7.1)]);
+        let o = outcome(
+            Some(Defect::OuterRace),
+            vec![modulation.clone()],
+            &[lzm(7.1)],
+        );
         assert_eq!(o.found, [true]);
         let o = outcome(Some(Defect::OuterRace), vec![modulation], &[lzm(10.0)]);
         assert_eq!((o.found.clone(), o.false_claims.len()), (vec![false], 1));
