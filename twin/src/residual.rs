@@ -412,7 +412,7 @@ pub fn on_model_comb(model: &TwinModel, c: &Component, df: f64, span_s: f64) -> 
         }
     }
     if let Some(loc) = model.fault {
-        let r = f64::from(freqs.impact_rate(loc)) * (1.0 + model.get("rate_factor").unwrap_or(0.0));
+        let r = model.comb_rate_hz(loc);
         if sidebands.is_empty() {
             combs.push((r, 0.0));
         }
