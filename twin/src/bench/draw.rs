@@ -39,6 +39,20 @@ impl Defect {
     }
 }
 
+impl Base {
+    /// The impact rate of a defect `d` of this bearing, Hz: its kinematic order
+    /// (BPFO, BPFI, 2·BSF) of the shaft, times the base's rate factor.
+    pub fn impact_rate_hz(&self, d: Defect) -> f64 {
+        let o = self.bearing.orders();
+        let order = f64::from(match d {
+            Defect::OuterRace => o.bpfo,
+            Defect::InnerRace => o.bpfi,
+            Defect::Ball => 2.0 * o.bsf,
+        });
+        order * self.rpm / 60.0 * (1.0 + self.rate_factor)
+    }
+}
+
 /// One structural mode of the machine: the sensor sees `gain · e^{−ζωt} sin ω_d t`
 /// per unit impact.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
@@ -606,16 +620,10 @@ fn draw_injection(
                 .filter(|x| *x != first)
                 .collect();
             let defect = others[d.pick(2)];
-            let o = base.bearing.orders();
-            let order = f64::from(match defect {
-                Defect::OuterRace => o.bpfo,
-                Defect::InnerRace => o.bpfi,
-                Defect::Ball => 2.0 * o.bsf,
-            });
             Injection::Compound {
                 defect,
                 rel: 10f64.powf(level(u, -16.0, -3.0) / 20.0),
-                rate_hz: order * shaft * (1.0 + base.rate_factor),
+                rate_hz: base.impact_rate_hz(defect),
             }
         }
         Kind::SpeedDrift => Injection::SpeedDrift {

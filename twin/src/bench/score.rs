@@ -9,7 +9,10 @@
 //!   an `extra_resonance` only where it names the injected mode's frequency within
 //!   [`MODE_TOLERANCE`] (a mode anywhere else is not that mode), a
 //!   `second_impact_train` or a `load_zone_modulation` only at the injected rate
-//!   within [`RATE_TOLERANCE`];
+//!   within [`RATE_TOLERANCE`]. A compound's two defects may be named either way
+//!   round: the loop's fault hypothesis the compound's defect and a second train at
+//!   the base defect's own rate name it too (`swapped_compound`), and the hypothesis
+//!   then counts as right;
 //! - **a base property named as an effect**: true of the record but part of what every
 //!   bearing signal has, so not what the machine adds ([`base_property`]): slip on a
 //!   record with a defect, a load zone at the rate of the defect's own (shaft for an
@@ -64,6 +67,10 @@ pub struct Outcome {
     pub fault_claimed: String,
     /// The true defect (`none` for a healthy bearing).
     pub fault_true: String,
+    /// Whether the fault hypothesis is right: the true defect, or a compound's
+    /// second defect where the base's is named as the second train
+    /// ([`Judged::swapped`]).
+    pub fault_right: bool,
     /// PSD error of the first fit and at the end, dB, and the record's own scatter.
     pub psd_initial_db: f64,
     /// PSD error at the end, dB.
@@ -184,18 +191,28 @@ pub struct Judged {
     pub false_claims: Vec<String>,
     /// Claims naming a base property.
     pub base_claims: Vec<String>,
+    /// The loop took a compound's second defect for the first and named the base's
+    /// as the second train ([`swapped_compound`]).
+    pub swapped: bool,
 }
 
-/// The modes the first fit completed the base with (`extra_resonance@<f>Hz`), Hz.
-fn base_modes(base_terms: &[String]) -> Vec<f64> {
-    base_terms
-        .iter()
-        .filter_map(|t| {
+/// The modes of the first fit's base, Hz: the structure's first (`fn_hz` in
+/// `params_initial`, wherever the fit put it: a strong injected mode is often where it
+/// lands, the base's own first mode then taken as a further one) and those it
+/// completed the base with (`extra_resonance@<f>Hz` in `base_terms`).
+pub fn first_fit_modes(
+    params_initial: &serde_json::Map<String, serde_json::Value>,
+    base_terms: &[String],
+) -> Vec<f64> {
+    let first = params_initial.get("fn_hz").and_then(|v| v.as_f64());
+    first
+        .into_iter()
+        .chain(base_terms.iter().filter_map(|t| {
             t.strip_prefix("extra_resonance@")?
                 .strip_suffix("Hz")?
                 .parse()
                 .ok()
-        })
+        }))
         .collect()
 }
 
@@ -223,46 +240,102 @@ pub fn same_claim(claim: &Claim, before: &Claim) -> bool {
             .any(|x| b.iter().any(|y| near(*x, *y, MODE_TOLERANCE)))
 }
 
-/// Judge `claims` against `case`. An injected mode counts as found where the base took
-/// it too (`base_terms`): one more mode driven by the same impacts is a base with one
-/// more mode, and no record can tell the two apart. `before`: what the loop claimed on
-/// the record before anything was injected (a measured base's own effects; empty for a
-/// synthesized one): a claim that says the same again is the record's, counted with
-/// the base properties.
-pub fn judge(case: &Case, claims: &[Claim], base_terms: &[String], before: &[Claim]) -> Judged {
+/// What the loop's first fit said of a case, which its claims are read with: the
+/// fault it assumed (`LoopReport::fault`) and the modes of its base
+/// ([`first_fit_modes`]).
+#[derive(Debug, Clone, Copy)]
+pub struct FirstFit<'a> {
+    /// The fault hypothesis.
+    pub fault: &'a str,
+    /// The base's modes, Hz.
+    pub modes: &'a [f64],
+}
+
+/// The rate a second train names when the loop took a compound's second defect for
+/// the first: with the hypothesis the compound's defect (`fault`), a
+/// `second_impact_train` within [`RATE_TOLERANCE`] of the base defect's own rate
+/// names the base's defect, and the two claims together name both defects of the
+/// compound. Which of two defects is the first is a matter of which impacts stand
+/// out more in the envelope (an outer race's, steady, over a ball's, modulated by
+/// the cage and alternating between the races, at half their strength), not of
+/// what the record holds. That rate, Hz, or `None`.
+fn swapped_compound(case: &Case, fault: &str, claim: &Claim, inj: &Injection) -> Option<f64> {
+    let (Injection::Compound { defect, .. }, Some(Effect::SecondImpactTrain { rate_hz, .. })) =
+        (inj, &claim.effect)
+    else {
+        return None;
+    };
+    let own = case.base.impact_rate_hz(case.base.defect?);
+    (claim.name == "second_impact_train"
+        && fault == defect.name()
+        && near(*rate_hz, own, RATE_TOLERANCE))
+    .then_some(own)
+}
+
+/// The relative errors of `claimed` frequencies against `truth`, Hz, the frequency
+/// a claim of `inj` should name (a mains claim may name any of its harmonics).
+fn relative_errors(claimed: Vec<f64>, inj: &Injection, truth: f64) -> Vec<f64> {
+    let truths: Vec<f64> = match inj {
+        Injection::Mains { lines, .. } => {
+            lines.iter().map(|(h, _)| truth * f64::from(*h)).collect()
+        }
+        _ => vec![truth],
+    };
+    claimed
+        .iter()
+        .flat_map(|c| truths.iter().map(move |t| (c / t - 1.0).abs()))
+        .collect()
+}
+
+/// Judge `claims` against `case`, read with what the `first` fit said. An injected
+/// mode counts as found where the base took it too (`first.modes`): one more mode
+/// driven by the same impacts is a base with one more mode, and no record can tell
+/// the two apart. A compound is found by a second train at its rate, or where the
+/// loop took it for the first defect and named the base's as the second
+/// ([`swapped_compound`]). `before`: what the loop claimed on the record before
+/// anything was injected (a measured base's own effects; empty for a synthesized
+/// one): a claim that says the same again is the record's, counted with the base
+/// properties.
+pub fn judge(case: &Case, claims: &[Claim], first: FirstFit<'_>, before: &[Claim]) -> Judged {
     let mut j = Judged::default();
-    let modes = base_modes(base_terms);
+    // Per claim naming the injection: the frequency it should name, if it names one.
+    let truth_of = |c: &Claim, inj: &Injection| -> Option<Option<f64>> {
+        if names(c, inj) {
+            Some(inj.frequency_hz())
+        } else {
+            swapped_compound(case, first.fault, c, inj).map(Some)
+        }
+    };
     for d in &case.injected {
-        let naming: Vec<&Claim> = claims.iter().filter(|c| names(c, &d.injection)).collect();
+        let naming: Vec<(&Claim, Option<f64>)> = claims
+            .iter()
+            .filter_map(|c| truth_of(c, &d.injection).map(|t| (c, t)))
+            .collect();
         let in_base = match &d.injection {
-            Injection::ExtraMode { mode } => {
-                modes.iter().any(|f| near(*f, mode.f_hz, MODE_TOLERANCE))
-            }
+            Injection::ExtraMode { mode } => first
+                .modes
+                .iter()
+                .any(|f| near(*f, mode.f_hz, MODE_TOLERANCE)),
             _ => false,
         };
         j.found.push(in_base || !naming.is_empty());
-        let named: Vec<f64> = naming
+        j.swapped |= claims
             .iter()
-            .filter_map(|c| c.effect.as_ref())
-            .flat_map(claimed_frequencies)
-            .collect();
-        j.freq_rel_error
-            .push(d.injection.frequency_hz().and_then(|f| {
-                let truths: Vec<f64> = match &d.injection {
-                    // A mains claim may name any of its harmonics.
-                    Injection::Mains { lines, .. } => {
-                        lines.iter().map(|(h, _)| f * f64::from(*h)).collect()
-                    }
-                    _ => vec![f],
-                };
-                named
-                    .iter()
-                    .flat_map(|c| truths.iter().map(move |t| (c / t - 1.0).abs()))
-                    .reduce(f64::min)
-            }));
+            .any(|c| swapped_compound(case, first.fault, c, &d.injection).is_some());
+        j.freq_rel_error.push(
+            naming
+                .iter()
+                .filter_map(|(c, truth)| Some((c.effect.as_ref()?, (*truth)?)))
+                .flat_map(|(e, f)| relative_errors(claimed_frequencies(e), &d.injection, f))
+                .reduce(f64::min),
+        );
     }
     for c in claims {
-        if case.injected.iter().any(|d| names(c, &d.injection)) {
+        if case
+            .injected
+            .iter()
+            .any(|d| truth_of(c, &d.injection).is_some())
+        {
             continue;
         }
         if base_property(c, case) || before.iter().any(|b| same_claim(c, b)) {
@@ -277,7 +350,12 @@ pub fn judge(case: &Case, claims: &[Claim], base_terms: &[String], before: &[Cla
 /// Score one case's report; `before` as in [`judge`].
 pub fn score(case: Case, report: &LoopReport, before: &[Claim]) -> Outcome {
     let claims = claims(report);
-    let j = judge(&case, &claims, &report.base_terms, before);
+    let modes = first_fit_modes(&report.params_initial, &report.base_terms);
+    let first = FirstFit {
+        fault: &report.fault,
+        modes: &modes,
+    };
+    let j = judge(&case, &claims, first, before);
     let fault_true = case.base.defect.map_or("none", |d| d.name()).to_string();
     Outcome {
         claimed_effects: claims.iter().filter_map(|c| c.effect.clone()).collect(),
@@ -287,6 +365,7 @@ pub fn score(case: Case, report: &LoopReport, before: &[Claim]) -> Outcome {
         freq_rel_error: j.freq_rel_error,
         false_claims: j.false_claims,
         base_claims: j.base_claims,
+        fault_right: report.fault == fault_true || j.swapped,
         fault_claimed: report.fault.clone(),
         fault_true,
         psd_initial_db: f64::from(report.error_initial.psd_log_rmse_db),
@@ -309,6 +388,7 @@ pub fn failed(case: Case, error: String) -> Outcome {
         freq_rel_error: vec![None; n],
         false_claims: Vec::new(),
         base_claims: Vec::new(),
+        fault_right: false,
         fault_claimed: "error".into(),
         fault_true: case.base.defect.map_or("none", |d| d.name()).to_string(),
         psd_initial_db: f64::NAN,
@@ -422,7 +502,7 @@ pub fn summarize(outcomes: &[Outcome]) -> Summary {
                 s.drops_effect.push(drop);
             }
             s.fault_cases += 1;
-            s.fault_right += usize::from(o.fault_claimed == o.fault_true);
+            s.fault_right += usize::from(o.fault_right);
             s.seconds.push(o.seconds);
         }
     }
@@ -578,7 +658,11 @@ mod tests {
             .into_iter()
             .map(|injection| Drawn { injection, u: 0.5 })
             .collect();
-        let j = judge(&case, claims, &["extra_resonance@1990Hz".to_string()], &[]);
+        let first = FirstFit {
+            fault: "none",
+            modes: &[3010.0, 1990.0],
+        };
+        let j = judge(&case, claims, first, &[]);
         Outcome {
             claims: claims.iter().map(|c| c.name.clone()).collect(),
             claimed_effects: Vec::new(),
@@ -589,6 +673,7 @@ mod tests {
             base_claims: j.base_claims,
             fault_claimed: "none".into(),
             fault_true: "none".into(),
+            fault_right: true,
             psd_initial_db: 4.0,
             psd_final_db: 2.0,
             psd_scatter_db: Some(1.0),
@@ -596,6 +681,55 @@ mod tests {
             error: None,
             case,
         }
+    }
+
+    /// A loop that takes a compound's second defect for the first and names the
+    /// base's own as the second train has named both: the compound is found, the
+    /// hypothesis right, nothing false. A second train elsewhere, or the same train
+    /// under another hypothesis, is not.
+    #[test]
+    fn a_compound_is_found_with_its_two_defects_swapped() {
+        let mut case = draw_case(0, 1, 2.0);
+        case.base.defect = Some(Defect::Ball);
+        let own = case.base.impact_rate_hz(Defect::Ball);
+        let compound = Injection::Compound {
+            defect: Defect::OuterRace,
+            rel: 0.5,
+            rate_hz: case.base.impact_rate_hz(Defect::OuterRace),
+        };
+        case.injected = vec![Drawn {
+            injection: compound,
+            u: 0.7,
+        }];
+        let train = |rate_hz: f64| {
+            claim(
+                "second_impact_train",
+                Some(Effect::SecondImpactTrain {
+                    rate_hz,
+                    source: "ball".into(),
+                }),
+            )
+        };
+        let read = |fault, rate| {
+            let first = FirstFit { fault, modes: &[] };
+            judge(&case, &[train(rate)], first, &[])
+        };
+        let j = read("outer_race", own * 1.01);
+        assert_eq!(
+            (j.found, j.false_claims.len(), j.swapped),
+            (vec![true], 0, true)
+        );
+        assert!(j.freq_rel_error[0].is_some_and(|e| (e - 0.01).abs() < 1e-9));
+        let j = read("outer_race", own * 1.2);
+        assert_eq!(
+            (j.found, j.false_claims.len(), j.swapped),
+            (vec![false], 1, false)
+        );
+        let j = read("inner_race", own);
+        assert_eq!(
+            (j.found, j.false_claims.len(), j.swapped),
+            (vec![false], 1, false)
+        );
     }
 
     /// A second train names a compound, and a modulation an injected one, only at
@@ -646,6 +780,46 @@ mod tests {
         assert_eq!(o.found, [true]);
         let o = outcome(Some(Defect::OuterRace), vec![modulation], &[lzm(10.0)]);
         assert_eq!((o.found.clone(), o.false_claims.len()), (vec![false], 1));
+    }
+
+    /// A strong injected mode is often where the first fit puts the structure's first
+    /// mode, the base's own then taken as a further one: found in the base all the
+    /// same, and the first fit's modes are read from both places.
+    #[test]
+    fn a_mode_the_first_fit_took_as_its_first_is_in_the_base() {
+        let mut params = serde_json::Map::new();
+        params.insert("fn_hz".into(), serde_json::json!(1245.5));
+        params.insert("fn2_hz".into(), serde_json::json!(2723.7));
+        let terms = [
+            "extra_resonance@2724Hz".to_string(),
+            "load_zone".to_string(),
+        ];
+        let modes = first_fit_modes(&params, &terms);
+        assert_eq!(modes, [1245.5, 2724.0]);
+        let mut case = draw_case(0, 1, 2.0);
+        let extra = |f_hz| Injection::ExtraMode {
+            mode: Mode {
+                f_hz,
+                zeta: 0.03,
+                gain: 1.0,
+            },
+        };
+        case.injected = vec![
+            Drawn {
+                injection: extra(1232.0),
+                u: 0.8,
+            },
+            Drawn {
+                injection: extra(1500.0),
+                u: 0.8,
+            },
+        ];
+        let first = FirstFit {
+            fault: "none",
+            modes: &modes,
+        };
+        assert_eq!(judge(&case, &[], first, &[]).found, [true, false]);
+        assert!(first_fit_modes(&serde_json::Map::new(), &terms) == [2724.0]);
     }
 
     /// A control with random bursts claimed counts against the false-claim rate; an
@@ -710,7 +884,10 @@ mod tests {
         let j = judge(
             &case,
             &[res(2650.0), res(4000.0), claim("dropouts", None)],
-            &[],
+            FirstFit {
+                fault: "none",
+                modes: &[],
+            },
             &before,
         );
         assert_eq!(j.base_claims, ["extra_resonance", "dropouts"]);
