@@ -40,16 +40,27 @@ impl Defect {
 }
 
 impl Base {
-    /// The impact rate of a defect `d` of this bearing, Hz: its kinematic order
-    /// (BPFO, BPFI, 2·BSF) of the shaft, times the base's rate factor.
-    pub fn impact_rate_hz(&self, d: Defect) -> f64 {
+    /// The kinematic order of a defect `d` of this bearing: BPFO, BPFI or 2·BSF per
+    /// shaft turn.
+    fn kinematic_order(&self, d: Defect) -> f64 {
         let o = self.bearing.orders();
-        let order = f64::from(match d {
+        f64::from(match d {
             Defect::OuterRace => o.bpfo,
             Defect::InnerRace => o.bpfi,
             Defect::Ball => 2.0 * o.bsf,
-        });
-        order * self.rpm / 60.0 * (1.0 + self.rate_factor)
+        })
+    }
+
+    /// The impacts per shaft turn of a defect `d`: its kinematic order times the
+    /// base's rate factor.
+    pub fn impact_order(&self, d: Defect) -> f64 {
+        self.kinematic_order(d) * (1.0 + self.rate_factor)
+    }
+
+    /// The impact rate of a defect `d`, Hz: its kinematic order of the shaft, times
+    /// the base's rate factor (the product in the order the draw has always taken it).
+    pub fn impact_rate_hz(&self, d: Defect) -> f64 {
+        self.kinematic_order(d) * (self.rpm / 60.0) * (1.0 + self.rate_factor)
     }
 }
 

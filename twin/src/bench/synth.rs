@@ -180,11 +180,7 @@ fn impact_train(
     f: &mut [f64],
 ) {
     let o = b.bearing.orders();
-    let order = f64::from(match defect {
-        Defect::OuterRace => o.bpfo,
-        Defect::InnerRace => o.bpfi,
-        Defect::Ball => 2.0 * o.bsf,
-    }) * (1.0 + b.rate_factor);
+    let order = b.impact_order(defect);
     let zone_turns = match defect {
         Defect::OuterRace => None,
         Defect::InnerRace => Some(1.0),
