@@ -43,8 +43,9 @@ pub const MIN_MODULATION_SIDEBANDS: usize = 3;
 /// A sideband lies within 1.5 bins or 1 % of `k·f_d ± f_m` and more than `f_m / 2`
 /// from the tooth (a tooth is not its own sideband); a rate under two bins puts its
 /// sidebands inside the tooth's lobe, and the residual's peaks then sit at the lobe's
-/// flanks, up to 1.5 bins outside `± f_m`. A rate that is a known rate plus or minus
-/// another rate found is their product, not a modulation of its own.
+/// flanks, up to 1.5 bins outside `± f_m`. Of two rates found where one is a known
+/// rate plus or minus the other, the weaker low line is their product, not a
+/// modulation of its own.
 pub fn measured_modulation(
     envelope: &[Component],
     fd: f64,
@@ -58,9 +59,6 @@ pub fn measured_modulation(
         .filter(|c| matches!(c.kind, Kind::Line | Kind::BelowBand) && c.f_hz < 0.5 * fd)
         .filter_map(|low| {
             let fm = refine(low.f_hz).unwrap_or(low.f_hz);
-            if known.iter().any(|k| (fm - k).abs() <= 1.5 * dfe) {
-                return None;
-            }
             let side: Vec<Component> = lines
                 .iter()
                 .filter(|c| c.f_hz > 0.5 * fd)
@@ -83,11 +81,23 @@ pub fn measured_modulation(
     // Two modulations of the same impacts multiply: a load zone at f_r and a pulsation
     // at f_p put lines at f_r ± f_p too, with sidebands of their own. Such a product
     // is no modulation of its own: a rate within 1.5 bins of |k ± f| for a known rate
-    // k and another rate f found here is left out (a pulsation at 2.7 Hz on an inner
-    // race at 29.95 Hz was once read at 27.1 Hz).
+    // k and another rate f found here is one of a pair, and the pair's product is
+    // the weaker low line. An envelope (1 + a·cos 2πf_r t)(1 + b·cos 2πf_p t) has its
+    // line at f_p at b and those at f_r ± f_p at a·b/2, at least 6 dB below (a ≤ 1).
+    // The slower of the two is not the rule: a pulsation at 20 Hz on a shaft at
+    // 29.95 Hz has its product at 9.95 Hz, below it. At equal levels the slower is
+    // kept (a pulsation at 2.7 Hz on an inner race at 29.95 Hz was once read at
+    // 27.1 Hz). A rate found at a known rate joins the pairs, though it is no
+    // modulation to read: a ball's impacts modulated near the shaft rate (57.4 Hz on
+    // a shaft at 57.8 Hz) put its product with the cage rate (24.5 Hz) at 81.9 Hz,
+    // once read as a modulation of its own.
+    let outranks = |o: &MeasuredModulation, m: &MeasuredModulation| {
+        let (lo, lm) = (o.lines[0].excess_db, m.lines[0].excess_db);
+        lo > lm || (lo == lm && o.rate_hz < m.rate_hz)
+    };
     let product = |m: &MeasuredModulation| {
         found.iter().any(|o| {
-            o.rate_hz < m.rate_hz
+            outranks(o, m)
                 && known.iter().any(|k| {
                     [k + o.rate_hz, (k - o.rate_hz).abs()]
                         .iter()
@@ -95,9 +105,11 @@ pub fn measured_modulation(
                 })
         })
     };
+    let is_known =
+        |m: &MeasuredModulation| known.iter().any(|k| (m.rate_hz - k).abs() <= 1.5 * dfe);
     found
         .iter()
-        .filter(|m| !product(m))
+        .filter(|m| !is_known(m) && !product(m))
         .cloned()
         .max_by(|a, b| {
             a.sidebands
@@ -260,19 +272,61 @@ mod tests {
         assert_eq!((m.sidebands, m.lines.len()), (6, 7));
     }
 
-    /// A pulsation at 2.7 Hz on impacts the load zone modulates at the shaft's 29.95 Hz
-    /// puts lines at 2.7 and at 29.95 − 2.7 Hz, each with sidebands (the second with
-    /// more here): the rate is the pulsation's, the other its product with the shaft.
-    #[test]
-    fn a_product_of_two_modulations_is_read_at_the_slower_rate() {
-        let mut env = vec![line(2.7), line(27.25)];
+    fn at(f_hz: f64, excess_db: f32) -> Component {
+        Component {
+            excess_db,
+            ..line(f_hz)
+        }
+    }
+
+    /// The envelope of impacts modulated at the shaft's 29.95 Hz and by a pulsation
+    /// at `fp`: lines at `fp` (12 dB) and at the product `29.95 − fp` (6 dB weaker),
+    /// each with sidebands around the comb (the product's with more here).
+    fn two_modulations(fp: f64) -> Vec<Component> {
+        let product = 29.95 - fp;
+        let mut env = vec![at(fp, 12.0), at(product, 6.0)];
         for k in 1..=3 {
             let tooth = f64::from(k) * FD;
-            env.extend([line(tooth - 2.7), line(tooth + 2.7)]);
-            env.extend([line(tooth - 27.25), line(tooth + 27.25), line(tooth + 27.2)]);
+            env.extend([line(tooth - fp), line(tooth + fp)]);
+            env.extend([line(tooth - product), line(tooth + product)]);
+            env.push(line(tooth + product - 0.05));
         }
-        let m = measured_modulation(&env, FD, &[29.95], DFE, |_| None).expect("a modulation");
+        env
+    }
+
+    /// A pulsation at 2.7 Hz puts its product with the shaft at 27.25 Hz: the rate is
+    /// the pulsation's, the stronger low line.
+    #[test]
+    fn a_product_of_two_modulations_is_the_weaker_line() {
+        let m = measured_modulation(&two_modulations(2.7), FD, &[29.95], DFE, |_| None)
+            .expect("a modulation");
         assert!((m.rate_hz - 2.7).abs() < 1e-9, "{}", m.rate_hz);
+    }
+
+    /// A pulsation faster than half the shaft rate (20 Hz) puts its product below it
+    /// (9.95 Hz): the rate is still the stronger line's, not the slower.
+    #[test]
+    fn a_product_below_the_pulsation_is_not_its_rate() {
+        let m = measured_modulation(&two_modulations(20.0), FD, &[29.95], DFE, |_| None)
+            .expect("a modulation");
+        assert!((m.rate_hz - 20.0).abs() < 1e-9, "{}", m.rate_hz);
+    }
+
+    /// A ball (impacts at 370.5 Hz, its load zone at the cage's 24.5 Hz) modulated
+    /// near the shaft rate (57.4 Hz on a shaft at 57.83 Hz): the line at 57.4 Hz is
+    /// the shaft's to read, and its product with the cage rate at 81.9 Hz no
+    /// modulation of its own.
+    #[test]
+    fn a_product_with_a_known_rate_is_not_read() {
+        const BALL: f64 = 370.5;
+        let mut env = vec![at(57.4, 12.0), at(81.9, 6.0)];
+        for k in 1..=3 {
+            let tooth = f64::from(k) * BALL;
+            for f in [57.4, 81.9] {
+                env.extend([line(tooth - f), line(tooth + f)]);
+            }
+        }
+        assert!(measured_modulation(&env, BALL, &[24.5, 57.83], DFE, |_| None).is_none());
     }
 
     /// An inner race whose model already has its load zone at the shaft rate: the
