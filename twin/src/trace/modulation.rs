@@ -33,7 +33,8 @@ pub const MIN_MODULATION_SIDEBANDS: usize = 3;
 /// modulation at `f_m` has envelope lines at `f_m` itself and at `k·f_d ± f_m`; a sum
 /// of two sources (a second train, a tone) has no such sidebands, so the pattern —
 /// a line below `f_d / 2` and at least [`MIN_MODULATION_SIDEBANDS`] sidebands at its
-/// spacing — names a modulation and reads its rate. Candidate rates are the envelope
+/// spacing, or both sidebands of one line the model has ([`sideband_pair`]) — names
+/// a modulation and reads its rate. Candidate rates are the envelope
 /// lines below `f_d / 2`, and the residual's rise at its low edge (`below_band`: a
 /// rate of one or two envelope bins, where the Welch block cannot tell it from DC),
 /// each read again by `refine` (on a longer block; the sidebands themselves sit a bin
@@ -54,6 +55,8 @@ pub fn measured_modulation(
     refine: impl Fn(f64) -> Option<f64>,
 ) -> Option<MeasuredModulation> {
     let lines: Vec<&Component> = envelope.iter().filter(|c| c.kind == Kind::Line).collect();
+    let tol = |f: f64| (1.5 * dfe).max(0.01 * f);
+    let at = |f: f64| lines.iter().find(|c| (c.f_hz - f).abs() < tol(c.f_hz));
     let found: Vec<MeasuredModulation> = envelope
         .iter()
         .filter(|c| matches!(c.kind, Kind::Line | Kind::BelowBand) && c.f_hz < 0.5 * fd)
@@ -63,15 +66,19 @@ pub fn measured_modulation(
                 .iter()
                 .filter(|c| c.f_hz > 0.5 * fd)
                 .filter(|c| {
-                    let tol = (1.5 * dfe).max(0.01 * c.f_hz);
                     (1..=5).any(|k| {
                         let off = (c.f_hz - f64::from(k) * fd).abs();
-                        off > 0.5 * fm && (off - fm).abs() < tol
+                        off > 0.5 * fm && (off - fm).abs() < tol(c.f_hz)
                     })
                 })
                 .map(|c| (*c).clone())
                 .collect();
-            (side.len() >= MIN_MODULATION_SIDEBANDS).then(|| MeasuredModulation {
+            let side = if side.len() >= MIN_MODULATION_SIDEBANDS {
+                side
+            } else {
+                sideband_pair(fm, fd, known, &tol, &at)?
+            };
+            Some(MeasuredModulation {
                 rate_hz: fm,
                 sidebands: side.len(),
                 lines: std::iter::once((*low).clone()).chain(side).collect(),
@@ -115,6 +122,52 @@ pub fn measured_modulation(
             a.sidebands
                 .cmp(&b.sidebands)
                 .then(a.lines[0].excess_db.total_cmp(&b.lines[0].excess_db))
+        })
+}
+
+/// Both sidebands `s ± f_m` of one line `s` the model's envelope has (a tooth
+/// `k·f_d`, k ≤ 5, or a rate the model modulates at), where fewer than
+/// [`MIN_MODULATION_SIDEBANDS`] sidebands stand around the comb: a weak modulation
+/// leaves the comb's sidebands under the floor but its products with a strong load
+/// zone above it (an inner race's zone at the shaft rate f_r and a pulsation at f_p:
+/// lines at f_p, f_r − f_p and f_r + f_p). A sum has no such pair, unless its own
+/// harmonics fall there: a train at `f_m` has lines at `s ± f_m` when `s` is one of
+/// its harmonics, so a carrier in a whole ratio (1–4) with `f_m` either way is passed
+/// over. `at(f)`: the residual's envelope line within tolerance of `f`.
+fn sideband_pair<'c>(
+    fm: f64,
+    fd: f64,
+    known: &[f64],
+    tol: &impl Fn(f64) -> f64,
+    at: &impl Fn(f64) -> Option<&'c &'c Component>,
+) -> Option<Vec<Component>> {
+    let related = |s: f64| {
+        let r = if s > fm { s / fm } else { fm / s };
+        (1..=4).any(|n| (r - f64::from(n)).abs() < 0.05 * f64::from(n))
+    };
+    // A rate that is itself the sum or difference of two lines the model has (a
+    // ball's spin rate less the cage's: 81.1 − 14.6 Hz) is a line of the model's
+    // lattice its render places a little off, and its pair too.
+    let carriers: Vec<f64> = (1..=5)
+        .map(|k| f64::from(k) * fd)
+        .chain(known.iter().copied())
+        .collect();
+    let lattice = carriers.iter().enumerate().any(|(i, a)| {
+        carriers[..i].iter().any(|b| {
+            [a + b, (a - b).abs()]
+                .iter()
+                .any(|&c| (c - fm).abs() < tol(fm))
+        })
+    });
+    if lattice {
+        return None;
+    }
+    carriers
+        .into_iter()
+        .filter(|&s| s > 0.0 && !related(s))
+        .find_map(|s| {
+            let (lo, hi) = (at((s - fm).abs())?, at(s + fm)?);
+            (lo.f_hz != hi.f_hz).then(|| vec![(*lo).clone(), (*hi).clone()])
         })
 }
 
@@ -181,7 +234,13 @@ pub(super) fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>, out: &m
             let f = peak_frequency(spec, fs, lo as f32, (f0 + dfe) as f32).ok()?;
             Some(f64::from(f))
         };
-        let known = known_rates(fm, shaft, &modulation_rates(model));
+        let mut known = known_rates(fm, shaft, &modulation_rates(model));
+        // A rolling element strikes the two races in turn, unequally: its envelope
+        // has lines at the odd multiples of the spin rate (f_d / 2) beside the comb,
+        // the defect's own, not a load varying as it spins.
+        if loc == DefectLocation::Ball {
+            known.push(0.5 * fd);
+        }
         let measured = measured_modulation(&analysis.envelope, fd, &known, dfe, refine)
             .filter(|m| !kinematic || m.sidebands > side.len());
         if let Some(m) = measured {
@@ -327,6 +386,35 @@ mod tests {
             }
         }
         assert!(measured_modulation(&env, BALL, &[24.5, 57.83], DFE, |_| None).is_none());
+    }
+
+    /// An inner race (teeth at 162.2 Hz, its zone at the shaft's 31.4 Hz) pulsing at
+    /// 26.2 Hz, its comb's sidebands under the floor: the pulsation's products with
+    /// the zone (5.2 and 57.6 Hz) make the pattern. A train at half the shaft rate
+    /// (lines at 15.7, 47.1 Hz) has the same pair around the shaft: its harmonics.
+    #[test]
+    fn a_pair_around_the_modelled_zone_is_a_modulation() {
+        const BPFI: f64 = 162.2;
+        let known = [31.4, 31.4];
+        let pulsing: Vec<Component> = [5.2, 26.2, 57.6].map(line).to_vec();
+        let m = measured_modulation(&pulsing, BPFI, &known, DFE, |_| None).expect("a modulation");
+        assert!((m.rate_hz - 26.2).abs() < 1e-9, "{}", m.rate_hz);
+        assert_eq!(m.sidebands, 2);
+        let half_orders: Vec<Component> = [15.7, 47.1].map(line).to_vec();
+        assert!(measured_modulation(&half_orders, BPFI, &known, DFE, |_| None).is_none());
+        let one_side: Vec<Component> = [26.2, 57.6].map(line).to_vec();
+        assert!(measured_modulation(&one_side, BPFI, &known, DFE, |_| None).is_none());
+    }
+
+    /// A ball (comb at 2·BSF = 162.2 Hz, the cage at 14.6 Hz, the spin rate 81.1 Hz
+    /// known): lines at BSF − FTF (66.5 Hz) and BSF + FTF, 3·BSF − FTF around the
+    /// comb's first tooth are the ball's own lattice, not a modulation at 66.5 Hz.
+    #[test]
+    fn a_ball_s_own_lines_are_no_pair() {
+        const BALL: f64 = 162.2;
+        let env: Vec<Component> = [66.5, 95.7, 228.7].map(line).to_vec();
+        let known = [14.6, 36.96, 81.1];
+        assert!(measured_modulation(&env, BALL, &known, DFE, |_| None).is_none());
     }
 
     /// An inner race whose model already has its load zone at the shaft rate: the
