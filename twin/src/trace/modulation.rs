@@ -57,11 +57,15 @@ pub fn measured_modulation(
     let lines: Vec<&Component> = envelope.iter().filter(|c| c.kind == Kind::Line).collect();
     let tol = |f: f64| (1.5 * dfe).max(0.01 * f);
     let at = |f: f64| lines.iter().find(|c| (c.f_hz - f).abs() < tol(c.f_hz));
+    let carriers = carriers(fd, known);
     let found: Vec<MeasuredModulation> = envelope
         .iter()
         .filter(|c| matches!(c.kind, Kind::Line | Kind::BelowBand) && c.f_hz < 0.5 * fd)
         .filter_map(|low| {
             let fm = refine(low.f_hz).unwrap_or(low.f_hz);
+            if on_lattice(fm, &carriers, tol(fm)) {
+                return None;
+            }
             let side: Vec<Component> = lines
                 .iter()
                 .filter(|c| c.f_hz > 0.5 * fd)
@@ -76,7 +80,7 @@ pub fn measured_modulation(
             let side = if side.len() >= MIN_MODULATION_SIDEBANDS {
                 side
             } else {
-                sideband_pair(fm, fd, known, &tol, &at)?
+                sideband_pair(fm, &carriers, &tol, &at)?
             };
             Some(MeasuredModulation {
                 rate_hz: fm,
@@ -125,19 +129,47 @@ pub fn measured_modulation(
         })
 }
 
-/// Both sidebands `s ± f_m` of one line `s` the model's envelope has (a tooth
-/// `k·f_d`, k ≤ 5, or a rate the model modulates at), where fewer than
-/// [`MIN_MODULATION_SIDEBANDS`] sidebands stand around the comb: a weak modulation
-/// leaves the comb's sidebands under the floor but its products with a strong load
-/// zone above it (an inner race's zone at the shaft rate f_r and a pulsation at f_p:
-/// lines at f_p, f_r − f_p and f_r + f_p). A sum has no such pair, unless its own
-/// harmonics fall there: a train at `f_m` has lines at `s ± f_m` when `s` is one of
-/// its harmonics, so a carrier in a whole ratio (1–4) with `f_m` either way is passed
-/// over. `at(f)`: the residual's envelope line within tolerance of `f`.
+/// The lines the model's envelope has that a modulation's sidebands stand around:
+/// the comb's teeth `k·f_d` (k ≤ 5) and the known rates.
+fn carriers(fd: f64, known: &[f64]) -> Vec<f64> {
+    (1..=5)
+        .map(|k| f64::from(k) * fd)
+        .chain(known.iter().copied())
+        .collect()
+}
+
+/// Whether `fm` is the sum or difference of two distinct lines of the model's
+/// (`carriers`), within `tol` (a line with itself is its own harmonic, the shape of
+/// a load zone narrower than a turn, read as such): a ball's spin rate less the cage's (BSF − FTF) is a line of the
+/// ball's own lattice, with sidebands at BSF + FTF, 3·BSF − FTF … around the comb,
+/// which its render places a little off; it is no modulation (seed 11 control 143: a
+/// ball read as modulated at 98.7 Hz = 113.9 − 15.3 Hz, four sidebands).
+fn on_lattice(fm: f64, carriers: &[f64], tol: f64) -> bool {
+    carriers.iter().enumerate().any(|(i, a)| {
+        carriers
+            .iter()
+            .take(i)
+            .filter(|&b| (a - b).abs() >= tol)
+            .any(|b| [a + b, (a - b).abs()].iter().any(|&c| (c - fm).abs() < tol))
+    })
+}
+
+/// Both sidebands `s ± f_m` of one line `s` the model's envelope has (`carriers`),
+/// where fewer than [`MIN_MODULATION_SIDEBANDS`] sidebands stand around the comb: a
+/// weak modulation leaves the comb's sidebands under the floor but its products with a
+/// strong load zone above it (an inner race's zone at the shaft rate f_r and a
+/// pulsation at f_p: lines at f_p, f_r − f_p and f_r + f_p). A sum has no such pair,
+/// unless its own harmonics fall there: a train at `f_m` has lines at `s ± f_m` when
+/// `s` is one of its harmonics, so a carrier in a whole ratio (1–4) with `f_m` either
+/// way is passed over, and so is a carrier closer than twice the tolerance `tol(s)`
+/// to its sidebands: their windows would reach the carrier's own line, which a
+/// render that places it a little off leaves in the residual (seed 3 case 88: 1.8 Hz
+/// read from lines 2.5 Hz either side of the cage rate; it is the product of the cage
+/// rate and a pulsation at 21.9 Hz). `at(f)`: the residual's envelope line within
+/// tolerance of `f`.
 fn sideband_pair<'c>(
     fm: f64,
-    fd: f64,
-    known: &[f64],
+    carriers: &[f64],
     tol: &impl Fn(f64) -> f64,
     at: &impl Fn(f64) -> Option<&'c &'c Component>,
 ) -> Option<Vec<Component>> {
@@ -145,26 +177,10 @@ fn sideband_pair<'c>(
         let r = if s > fm { s / fm } else { fm / s };
         (1..=4).any(|n| (r - f64::from(n)).abs() < 0.05 * f64::from(n))
     };
-    // A rate that is itself the sum or difference of two lines the model has (a
-    // ball's spin rate less the cage's: 81.1 − 14.6 Hz) is a line of the model's
-    // lattice its render places a little off, and its pair too.
-    let carriers: Vec<f64> = (1..=5)
-        .map(|k| f64::from(k) * fd)
-        .chain(known.iter().copied())
-        .collect();
-    let lattice = carriers.iter().enumerate().any(|(i, a)| {
-        carriers[..i].iter().any(|b| {
-            [a + b, (a - b).abs()]
-                .iter()
-                .any(|&c| (c - fm).abs() < tol(fm))
-        })
-    });
-    if lattice {
-        return None;
-    }
     carriers
-        .into_iter()
-        .filter(|&s| s > 0.0 && !related(s))
+        .iter()
+        .copied()
+        .filter(|&s| s > 0.0 && !related(s) && fm > 2.0 * tol(s))
         .find_map(|s| {
             let (lo, hi) = (at((s - fm).abs())?, at(s + fm)?);
             (lo.f_hz != hi.f_hz).then(|| vec![(*lo).clone(), (*hi).clone()])
@@ -404,17 +420,36 @@ mod tests {
         assert!(measured_modulation(&half_orders, BPFI, &known, DFE, |_| None).is_none());
         let one_side: Vec<Component> = [26.2, 57.6].map(line).to_vec();
         assert!(measured_modulation(&one_side, BPFI, &known, DFE, |_| None).is_none());
+        // 1.8 Hz from lines 2.5 Hz either side of the shaft: within the tolerance
+        // twice over of the shaft's own line, no pair.
+        let close: Vec<Component> = [1.8, 28.9, 33.9].map(line).to_vec();
+        assert!(measured_modulation(&close, BPFI, &known, DFE, |_| None).is_none());
     }
 
     /// A ball (comb at 2·BSF = 162.2 Hz, the cage at 14.6 Hz, the spin rate 81.1 Hz
     /// known): lines at BSF − FTF (66.5 Hz) and BSF + FTF, 3·BSF − FTF around the
-    /// comb's first tooth are the ball's own lattice, not a modulation at 66.5 Hz.
+    /// comb's first tooth are the ball's own lattice, not a modulation at 66.5 Hz;
+    /// nor are four such lines around the comb.
     #[test]
     fn a_ball_s_own_lines_are_no_pair() {
         const BALL: f64 = 162.2;
         let env: Vec<Component> = [66.5, 95.7, 228.7].map(line).to_vec();
         let known = [14.6, 36.96, 81.1];
         assert!(measured_modulation(&env, BALL, &known, DFE, |_| None).is_none());
+        // Four sidebands of the comb at 2·BSF = 227.8 Hz: BSF ± FTF, 3·BSF ± FTF,
+        // 5·BSF − FTF, with the cage at 15.3 Hz.
+        let (bsf, ftf) = (113.9, 15.3);
+        let lattice: Vec<Component> = [
+            bsf - ftf,
+            bsf + ftf,
+            3.0 * bsf - ftf,
+            3.0 * bsf + ftf,
+            5.0 * bsf - ftf,
+        ]
+        .map(line)
+        .to_vec();
+        let known = [ftf, 36.19, bsf];
+        assert!(measured_modulation(&lattice, 2.0 * bsf, &known, DFE, |_| None).is_none());
     }
 
     /// An inner race whose model already has its load zone at the shaft rate: the
