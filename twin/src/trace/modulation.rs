@@ -140,10 +140,11 @@ fn carriers(fd: f64, known: &[f64]) -> Vec<f64> {
 
 /// Whether `fm` is the sum or difference of two distinct lines of the model's
 /// (`carriers`), within `tol` (a line with itself is its own harmonic, the shape of
-/// a load zone narrower than a turn, read as such): a ball's spin rate less the cage's (BSF − FTF) is a line of the
-/// ball's own lattice, with sidebands at BSF + FTF, 3·BSF − FTF … around the comb,
-/// which its render places a little off; it is no modulation (seed 11 control 143: a
-/// ball read as modulated at 98.7 Hz = 113.9 − 15.3 Hz, four sidebands).
+/// a load zone narrower than a turn, read as such): a ball's spin rate less the
+/// cage's (BSF − FTF) is a line of the ball's own lattice, with sidebands at
+/// BSF + FTF, 3·BSF − FTF … around the comb, which its render places a little off;
+/// it is no modulation (seed 11 control 143: a ball read as modulated at
+/// 98.7 Hz = 113.9 − 15.3 Hz, four sidebands).
 fn on_lattice(fm: f64, carriers: &[f64], tol: f64) -> bool {
     carriers.iter().enumerate().any(|(i, a)| {
         carriers
@@ -347,7 +348,7 @@ mod tests {
         assert_eq!((m.sidebands, m.lines.len()), (6, 7));
     }
 
-    fn at(f_hz: f64, excess_db: f32) -> Component {
+    fn line_db(f_hz: f64, excess_db: f32) -> Component {
         Component {
             excess_db,
             ..line(f_hz)
@@ -359,7 +360,7 @@ mod tests {
     /// each with sidebands around the comb (the product's with more here).
     fn two_modulations(fp: f64) -> Vec<Component> {
         let product = 29.95 - fp;
-        let mut env = vec![at(fp, 12.0), at(product, 6.0)];
+        let mut env = vec![line_db(fp, 12.0), line_db(product, 6.0)];
         for k in 1..=3 {
             let tooth = f64::from(k) * FD;
             env.extend([line(tooth - fp), line(tooth + fp)]);
@@ -394,7 +395,7 @@ mod tests {
     #[test]
     fn a_product_with_a_known_rate_is_not_read() {
         const BALL: f64 = 370.5;
-        let mut env = vec![at(57.4, 12.0), at(81.9, 6.0)];
+        let mut env = vec![line_db(57.4, 12.0), line_db(81.9, 6.0)];
         for k in 1..=3 {
             let tooth = f64::from(k) * BALL;
             for f in [57.4, 81.9] {
