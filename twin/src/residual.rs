@@ -156,6 +156,20 @@ pub enum Check {
         /// Band, Hz.
         hi: f32,
     },
+    /// A structural mode's band `[lo, hi]`: its lines, as [`Check::Lines`], and its
+    /// impulsiveness. A mode rung by the model's impacts and background is as
+    /// impulsive as they make it, so where the record's band stands more impulsive
+    /// than the model's (`ln(measured / model)` of [`band_kurtosis`] over
+    /// [`MIN_LOG_KURTOSIS_EXCESS`](crate::trace::context::MIN_LOG_KURTOSIS_EXCESS))
+    /// the refit must halve that excess too: a band it leaves as impulsive is rung by
+    /// something sparser than the modelled impacts (bursts at random times), not a
+    /// mode of this structure.
+    Mode {
+        /// Band, Hz.
+        lo: f32,
+        /// Band, Hz.
+        hi: f32,
+    },
     /// Ring-down early/late frequency ratio excess over the model.
     Ringdown {
         /// Band, Hz.
@@ -200,7 +214,7 @@ pub fn evidence_gap(
         holds,
     };
     match *check {
-        Check::Lines => {
+        Check::Lines | Check::Mode { .. } => {
             let mut total = 0.0;
             for c in components {
                 let (m, s, n) = if c.domain == Domain::Psd {

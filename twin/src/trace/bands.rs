@@ -157,7 +157,7 @@ fn band_readings(
             effect: Effect::ExtraResonance { f_hz: b.f_hz },
             evidence: with(&why),
             strength,
-            check: Check::Lines,
+            check: Check::Mode { lo: l, hi: h },
         });
     }
     if let Some(why) = as_band
