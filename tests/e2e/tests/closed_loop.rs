@@ -10,6 +10,7 @@
 //! - clean control: no effect claimed, and the residual is noise-like.
 
 use pumptwin_core::bearing::BearingGeometry;
+use pumptwin_twin::bench::{draw::draw_case, run_case, score::Outcome, RECORD_SECONDS};
 use pumptwin_twin::closed_loop::{note_clipping, run, LoopConfig, LoopInput, LoopReport, LoopStep};
 use pumptwin_twin::generate::{generate, Injected, Strength, FS_HZ, RPM};
 use pumptwin_twin::sim::{simulate, SimulationSpec};
@@ -1054,16 +1055,26 @@ fn random_impacts_on_a_healthy_bearing_ring_the_structure() {
 /// not test this: its first fit takes the bursts' band as a base mode.)
 #[test]
 fn bursts_on_a_healthy_bearing_are_not_a_mode() {
-    use pumptwin_twin::bench::{draw::draw_case, run_case, RECORD_SECONDS};
-    let case = draw_case(18, 1, RECORD_SECONDS);
-    assert!(case.base.defect.is_none(), "case 18 of seed 1 is healthy");
+    let out = bursts_case_without_a_mode(18, 1, false);
+    assert_eq!(out.found, [true], "the bursts: {:?}", out.claims);
+}
+
+/// The randomized benchmark's case `id` of `seed` (faulty or not, as `faulty` says),
+/// run through the loop, which must claim no mode.
+fn bursts_case_without_a_mode(id: usize, seed: u64, faulty: bool) -> Outcome {
+    let case = draw_case(id, seed, RECORD_SECONDS);
+    assert_eq!(
+        case.base.defect.is_some(),
+        faulty,
+        "case {id} of seed {seed}"
+    );
     let out = run_case(case, &LoopConfig::default(), None);
     assert!(
         !out.claims.iter().any(|c| c == "extra_resonance"),
         "a mode claimed: {:?}",
         out.claims
     );
-    assert_eq!(out.found, [true], "the bursts: {:?}", out.claims);
+    out
 }
 
 /// Bursts at random times on a faulty bearing, ringing where the structure has no
@@ -1076,13 +1087,5 @@ fn bursts_on_a_healthy_bearing_are_not_a_mode() {
 /// no mode is claimed.
 #[test]
 fn bursts_on_a_faulty_bearing_are_not_a_mode() {
-    use pumptwin_twin::bench::{draw::draw_case, run_case, RECORD_SECONDS};
-    let case = draw_case(129, 8, RECORD_SECONDS);
-    assert!(case.base.defect.is_some(), "case 129 of seed 8 is faulty");
-    let out = run_case(case, &LoopConfig::default(), None);
-    assert!(
-        !out.claims.iter().any(|c| c == "extra_resonance"),
-        "a mode claimed: {:?}",
-        out.claims
-    );
+    bursts_case_without_a_mode(129, 8, true);
 }
