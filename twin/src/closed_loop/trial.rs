@@ -607,19 +607,20 @@ impl Trial<'_> {
                 return Some(self.best_of_rivals(cand, trial, &candidates[i + 1..], trials));
             }
             let (b, a) = (&self.current.figures, &trial.figures);
-            let reason = match &verdict.undone {
-                _ if !verdict.replicated => {
-                    "the error falls in one half of the record only".to_string()
-                }
-                _ if !verdict.shown_ok => format!(
+            let reason = if !verdict.replicated {
+                "the error falls in one half of the record only".to_string()
+            } else if !verdict.shown_ok {
+                format!(
                     "PSD {:.2} -> {:.2} dB, envelope {:.3} -> {:.3}: the shown errors rise on balance",
                     b.psd_log_rmse_db, a.psd_log_rmse_db, b.envelope_rmse, a.envelope_rmse
-                ),
-                Some(why) => why.clone(),
-                None => format!(
+                )
+            } else if let Some(why) = &verdict.undone {
+                why.clone()
+            } else {
+                format!(
                     "the error falls too little (its own evidence {}explained)",
                     if verdict.explained { "" } else { "not " }
-                ),
+                )
             };
             trials
                 .rejected
