@@ -47,6 +47,9 @@ pub enum PhysicsWindow {
         /// Each family's line level over the envelope spectrum's median, dB:
         /// `[outer_race, inner_race, ball]`.
         line_levels_db: [f32; 3],
+        /// The envelope's line at the cage rate over the same median, dB: a ball's
+        /// evidence where its own family has no line.
+        cage_line_db: f32,
     },
     /// Not diagnosed.
     Failed {
@@ -67,6 +70,7 @@ impl PhysicsWindow {
                 band_hz: [d.evidence.band_lo_hz, d.evidence.band_hi_hz],
                 spectral_kurtosis: d.evidence.spectral_kurtosis,
                 line_levels_db: d.evidence.lines.map(|l| l.level_db),
+                cage_line_db: d.evidence.cage_db,
             },
             Err(e) => Self::Failed {
                 error: e.to_string(),

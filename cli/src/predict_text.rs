@@ -132,6 +132,7 @@ mod tests {
                 band_hz: [2_000.0, 3_200.0],
                 spectral_kurtosis: 3.0,
                 line_levels_db: [5.0, 20.0, 4.0],
+                cage_line_db: 6.0,
             },
         }
     }

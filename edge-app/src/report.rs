@@ -26,7 +26,7 @@
 //!   "physics": {"window": n, "fault_type", "confidence", "severity_db",
 //!               "severity_uncertainty_db",
 //!               "width": {"degrees", "uncertainty_deg", "upper_bound"} | null,
-//!               "band_hz", "spectral_kurtosis", "line_levels_db"}
+//!               "band_hz", "spectral_kurtosis", "line_levels_db", "cage_line_db"}
 //!            | {"window", "error"} | null   the latest physical diagnosis of the first
 //!                                      channel over the 16 shaft revolutions ending with
 //!                                      window n (an earlier one: it runs after each
@@ -156,6 +156,7 @@ fn physics_json(window: Option<u64>, p: Option<&PhysicsResult>) -> serde_json::V
             "band_hz": [d.evidence.band_lo_hz, d.evidence.band_hi_hz],
             "spectral_kurtosis": d.evidence.spectral_kurtosis,
             "line_levels_db": d.evidence.lines.map(|l| l.level_db),
+            "cage_line_db": d.evidence.cage_db,
         }),
     }
 }

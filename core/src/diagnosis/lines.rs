@@ -99,6 +99,42 @@ fn severity_db(ses: &[f32], df: f32, f0: f32, bg: f32, p0: f32) -> (f32, f32) {
     (value, 10.0 / core::f32::consts::LN_10 * rel / (1.0 - share))
 }
 
+/// The bins the background is the median of — up to the highest family's last
+/// harmonic — and the highest line frequency the band's envelope carries, Hz.
+fn background_bins(
+    spectra: &BandSpectra<'_>,
+    shaft_hz: f32,
+    orders: &DefectOrders,
+) -> (usize, f32) {
+    let df = spectra.df;
+    let highest = Defect::ALL
+        .iter()
+        .fold(0.0f32, |m, d| m.max(d.order(orders) * shaft_hz));
+    let nyquist = df * spectra.es.len().saturating_sub(1) as f32;
+    let max_hz = (0.9 * spectra.width_hz).min(nyquist - df);
+    let k_hi = ((HARMONICS as f32 * highest * 1.1).min(max_hz) / df) as usize;
+    (k_hi, max_hz)
+}
+
+/// Level, dB over the same background as the families', of the envelope's line at
+/// the cage rate (FTF): the load zone's modulation of a rolling element's impacts
+/// (module docs of `crate::diagnosis`).
+pub fn cage_line_db(
+    spectra: &BandSpectra<'_>,
+    shaft_hz: f32,
+    orders: &DefectOrders,
+    work: &mut [f32],
+) -> f32 {
+    let (k_hi, _) = background_bins(spectra, shaft_hz, orders);
+    let bg = median_level(spectra.es, k_hi, work);
+    let (_, bins) = line_bins(spectra.es, spectra.df, orders.ftf * shaft_hz);
+    let peak = bins.iter().fold(0.0f32, |m, &s| m.max(s));
+    if bg <= 0.0 {
+        return 0.0;
+    }
+    10.0 * math::log10f(peak / bg + 1e-12)
+}
+
 /// Every family's evidence in `spectra` for a bearing of `orders` at `shaft_hz`.
 /// `work`: `N/2 + 1` floats for the medians.
 pub fn line_evidence(
@@ -109,11 +145,7 @@ pub fn line_evidence(
 ) -> [LineEvidence; 3] {
     let df = spectra.df;
     let f = Defect::ALL.map(|d| d.order(orders) * shaft_hz);
-    let highest = f.iter().fold(0.0f32, |m, &v| m.max(v));
-    let nyquist = df * spectra.es.len().saturating_sub(1) as f32;
-    let max_hz = (0.9 * spectra.width_hz).min(nyquist - df);
-    // The background: the median bin up to the highest family's last harmonic.
-    let k_hi = ((HARMONICS as f32 * highest * 1.1).min(max_hz) / df) as usize;
+    let (k_hi, max_hz) = background_bins(spectra, shaft_hz, orders);
     let bg_es = median_level(spectra.es, k_hi, work);
     let bg_ses = median_level(spectra.ses, k_hi, work);
     let mut lines = [LineEvidence::NONE; 3];
