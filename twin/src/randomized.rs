@@ -14,6 +14,7 @@
 //! | structural resonance | 1.5–4.5 kHz, ζ 0.02–0.10 | where impacts ring below the 5 kHz band limit |
 //! | impact force | 5–80 N (log) | barely visible to strong |
 //! | slip (timing jitter) | 0.5–2 % of the period | real bearings |
+//! | a ball's wandering strikes (interval walk) | 1–30 % of the period (log) | a spalled ball spins about an axis that wanders in its pocket, so its spot meets the races at irregular times; the cage still carries it through the load zone once per turn (`pumptwin_core::diagnosis`, the cage line) |
 //! | load-zone modulation depth | 0–0.9 | rotating-race and ball defects |
 //! | background force | 0.5–3 N (log) | the machine's broadband |
 //! | random pulses | 0–5 per s | debris, cavitation |
@@ -76,6 +77,12 @@ pub fn random_spec(index: u64, seed: u64) -> Result<SimulationSpec, SimError> {
         s.transfer.gain_angular *= gain;
     }
     spec.measurement_noise *= gain;
+    // Drawn last, for every record, so that the other conditions of every record are
+    // those drawn before the walk was added.
+    let u_walk = uniform(0.0, 1.0);
+    if fault == Some(DefectLocation::Ball) {
+        spec.walk = log(u_walk, 0.01, 0.30);
+    }
     Ok(spec)
 }
 
@@ -97,6 +104,52 @@ mod tests {
             assert!((600.0..=3_600.0).contains(&s.rpm));
             assert_eq!(s.sensors.len(), 1);
             s.bearing.validate().unwrap();
+            let ball = s.fault == Some(DefectLocation::Ball);
+            assert_eq!(ball, s.walk > 0.0, "{:?}: walk {}", s.fault, s.walk);
+            assert!(s.walk <= 0.30);
+        }
+    }
+
+    /// The simulator's wandering ball: its strikes' intervals walk by 30 % of the
+    /// period, so the 2·BSF family stands under a line's threshold, while the load
+    /// zone still modulates them once per cage turn: the core's diagnosis types it by
+    /// its cage line. The same ball keeping its rhythm is typed by its own family.
+    #[test]
+    fn a_wandering_simulated_ball_is_typed_by_its_cage_line() {
+        use pumptwin_core::diagnosis::{
+            decide, window_evidence, Buffers, Defect, FaultType, Thresholds,
+        };
+        use pumptwin_core::fft::Complex32;
+        let typed = |walk: f64, seed: u64| {
+            let mut spec =
+                SimulationSpec::cwru_like(Some(DefectLocation::Ball), 1_750.0, 0.8, seed);
+            spec.walk = walk;
+            spec.modulation_depth = 0.9;
+            spec.pulse_rate_hz = 0.0;
+            let rec = crate::sim::simulate(&spec).unwrap();
+            let x = &rec.channel("DE").unwrap().samples[..8_192];
+            let (mut c, mut r) = (
+                vec![Complex32::ZERO; Buffers::complex_len(8_192)],
+                vec![0.0; Buffers::real_len(8_192)],
+            );
+            let buf = Buffers::carve(&mut c, &mut r, 8_192).unwrap();
+            let shaft = 1_750.0 / 60.0;
+            let e = window_evidence(x, rec.fs_hz, shaft, &spec.bearing.orders(), buf).unwrap();
+            (decide(&e, &Thresholds::DEFAULT).fault, e)
+        };
+        for seed in 1..=3 {
+            let (fault, e) = typed(0.30, seed);
+            assert!(
+                e.line(Defect::Ball).level_db < Thresholds::DEFAULT.line_db,
+                "{e:?}"
+            );
+            assert_eq!(fault, FaultType::Ball, "seed {seed}: {e:?}");
+            let (fault, e) = typed(0.0, seed);
+            assert!(
+                e.line(Defect::Ball).level_db >= Thresholds::DEFAULT.line_db,
+                "{e:?}"
+            );
+            assert_eq!(fault, FaultType::Ball, "seed {seed}: {e:?}");
         }
     }
 }

@@ -64,6 +64,11 @@ pub struct SimulationSpec {
     pub modulation_depth: f64,
     /// Impact timing jitter about the grid as a fraction of the period (slip).
     pub jitter: f64,
+    /// Random walk of the impacts' intervals, a fraction of the period
+    /// ([`ImpactTrain::walk`]; 0: the train keeps its grid): a ball whose spalled spot
+    /// wanders as it spins about a moving axis strikes at irregular times, while the
+    /// cage still carries it through the load zone at FTF.
+    pub walk: f64,
     /// Unbalance force at the shaft rate, N.
     pub unbalance_n: f64,
     /// White background force, N per RK4 half-step sample.
@@ -159,6 +164,7 @@ impl SimulationSpec {
             impact_sigma_s: 2.0e-5,
             modulation_depth: 0.5,
             jitter: 0.005,
+            walk: 0.0,
             unbalance_n: 2.0,
             background_n: 1.0,
             pulse_rate_hz: 2.0,
@@ -201,7 +207,7 @@ impl SimulationSpec {
                 modulation_depth: depth,
                 modulation_hz: mod_hz,
                 jitter: self.jitter,
-                walk: 0.0,
+                walk: self.walk,
                 amplitude_spread: 0.0,
                 rate_drift_per_s: self.extra.speed_drift_per_s,
             },

@@ -61,10 +61,10 @@
 //! (`scripts/ball-cage-evidence.py`, 2026-11-27) found FTF alone did not separate
 //! ball records from race records there, and the rule was written after the cage
 //! line was seen standing alone on the held-out 0.014" ball records (2026-12-01),
-//! so `fault-size`'s ball figure is not a clean held-out test of it. On the
-//! development sides it makes 4 ball claims on `cwru-dev` (all right) and no wrong
-//! one there or on `sim-dev`, whose simulated balls carry the same load-zone
-//! modulation (`DefectFrequencies::modulation_rate`) but keep their 2·BSF rhythm.
+//! so `fault-size`'s ball figure is not a clean held-out test of it. The simulator's
+//! randomized balls were then given wandering strikes (`pumptwin_twin::randomized`),
+//! so that the development side where the truth is known carries such balls too:
+//! there, and on `cwru-dev`, every claim the rule makes is right ([`CAGE_LINE_DB`]).
 //!
 //! Why `2·BSF` for the ball: a spalled rolling element strikes both races once per
 //! spin, so its impacts come at twice the spin rate; the spin rate itself appears
@@ -401,14 +401,15 @@ pub fn segment_len(fs_hz: f32, shaft_hz: f32, revolutions: f32, window: usize) -
 
 /// The level, dB over the families' background, at which the envelope's line at the
 /// cage rate types a lineless, impulsive window as a ball (module docs), whatever
-/// thresholds a model file carries. Chosen on the development sides: at `cwru-dev`'s
-/// thresholds the rule at `line_db` (17 dB) claims 4 ball windows there, all right,
-/// and none on `sim-dev`; at `sim-dev`'s own (14 dB) it claims 15 windows of
-/// simulated healthy bearings whose background carries random bursts (cage lines
-/// 14.5–16.9 dB), all false. A burst's slow envelope raises the spectrum near zero
-/// frequency, where the cage line lies, so the line must stand as high as a
-/// family's on CWRU: 17 dB, the smallest whole level with no false claim on either
-/// side.
+/// thresholds a model file carries. Chosen on the development sides, `cwru-dev` and
+/// `sim-dev` (whose simulated balls strike at wandering intervals, 1–30 % of the
+/// period, under the load zone's modulation at the cage rate:
+/// `pumptwin_twin::randomized`), as the smallest whole level with no false claim on
+/// either at either side's thresholds. At 17 dB: 4 ball windows on `cwru-dev`, 77 on
+/// `sim-dev` at the same thresholds and 20 at its own (11 dB), all right; at 16 dB
+/// the first false ones, windows of simulated healthy bearings whose background
+/// carries random bursts (cage lines up to 16.9 dB): a burst's slow envelope raises
+/// the spectrum near zero frequency, where the cage line lies.
 pub const CAGE_LINE_DB: f32 = 17.0;
 
 /// The decision on one window's evidence.

@@ -737,7 +737,17 @@ fn identify_fault(
         };
     }
     if best.1 >= threshold {
-        (best.0, ev)
+        return (best.0, ev);
+    }
+    // Where no family stands out, a ball may still be there: its spot wanders as it
+    // spins, so its strikes lose their rhythm, but it passes the load zone once per
+    // cage turn whatever it points at, and the cage rate's own lines decide, as where
+    // the families coincide (`pumptwin_core::diagnosis` reads the cage line the same
+    // way).
+    let cage_db = family_level_db(env, df, f.ftf, &[]);
+    ev.insert("ftf_db".into(), serde_json::json!(cage_db));
+    if cage_db >= threshold {
+        (Some(DefectLocation::Ball), ev)
     } else {
         (None, ev)
     }
