@@ -9,8 +9,9 @@ PROTOCOL: `cwru-dev` (default: the shipped thresholds) or `sim-dev` (the randomi
 simulated records of `--sim-records`: the `sim-only` protocol's thresholds).
 
 The thresholds are the defect families': they were chosen before the cage line's rule
-(a lineless, impulsive window whose envelope line at FTF reaches CAGE_LINE_DB = 17 dB
-and leads every family by margin_db is a ball), which borrows margin_db, so the sweep and the calibration
+(a lineless, impulsive window whose envelope line at FTF reaches CAGE_LINE_DB = 15 dB
+and leads every family, and the strongest envelope line above it, by margin_db is a
+ball), which borrows margin_db, so the sweep and the calibration
 leave that rule out; its claims on the same side are counted after the choice. Rule
 (pumptwin_core::diagnosis::Thresholds::DEFAULT says why): over the grid
 line_db 8-30 dB x margin_db 1-6 dB x impulsive_sk {0.3 .. 1.5}, keep the settings whose
@@ -25,7 +26,7 @@ import math
 import sys
 
 FAMILIES = ["outer_race", "inner_race", "ball"]
-CAGE_LINE_DB = 17.0  # pumptwin_core::diagnosis::CAGE_LINE_DB
+CAGE_LINE_DB = 15.0  # pumptwin_core::diagnosis::CAGE_LINE_DB
 
 
 def rows(path, protocol):
@@ -34,18 +35,18 @@ def rows(path, protocol):
         if r["protocol"] != protocol:
             continue
         levels = [float(r["outer_db"]), float(r["inner_db"]), float(r["ball_db"])]
-        out.append((r["truth"], float(r["sk"]), levels, float(r["cage_db"])))
+        out.append((r["truth"], float(r["sk"]), levels, (float(r["cage_db"]), float(r["above_cage_db"]))))
     return out
 
 
-def decide(sk, lv, cage, line, margin, impulsive):
+def decide(sk, lv, cage, line, margin, impulsive, above=0.0):
     order = sorted(range(3), key=lambda i: -lv[i])
     best, lead = lv[order[0]], lv[order[0]] - lv[order[1]]
     if best >= line and lead >= margin:
         return FAMILIES[order[0]], lead - margin
     if best < line and sk < impulsive:
         return "normal", line - best
-    if cage is not None and best < line and sk >= impulsive and cage >= CAGE_LINE_DB and cage - best >= margin:
+    if cage is not None and best < line and sk >= impulsive and cage >= CAGE_LINE_DB and cage - max(best, above) >= margin:
         return "ball", cage - best - margin
     return "no_clear_signature", 0.0
 
@@ -106,7 +107,7 @@ def main():
     cage_claims = collections.Counter()
     for truth, sk, lv, cage in data:
         d, x = decide(sk, lv, None, line, margin, impulsive)
-        if decide(sk, lv, cage, line, margin, impulsive)[0] != d:
+        if decide(sk, lv, cage[0], line, margin, impulsive, cage[1])[0] != d:
             cage_claims[truth] += 1
         n[truth] += 1
         if d in FAMILIES:

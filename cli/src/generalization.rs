@@ -338,7 +338,7 @@ fn majority(types: &[Option<FaultType>]) -> Option<FaultType> {
 
 fn windows_tsv(cases: &[Case], scored: &[Scored]) -> String {
     let mut s = String::from(
-        "protocol\trecord\ttruth\twindow\tsk\tband_lo_hz\touter_db\tinner_db\tball_db\tcage_db\touter_sev_db\tinner_sev_db\tball_sev_db\techo_ms\techo_prominence\tlobe_ms\tphysics\tenvelope\tdsstgat\n",
+        "protocol\trecord\ttruth\twindow\tsk\tband_lo_hz\touter_db\tinner_db\tball_db\tcage_db\tabove_cage_db\touter_sev_db\tinner_sev_db\tball_sev_db\techo_ms\techo_prominence\tlobe_ms\tphysics\tenvelope\tdsstgat\n",
     );
     for (c, sc) in cases.iter().zip(scored) {
         for (k, d) in sc.physics.iter().enumerate() {
@@ -346,7 +346,7 @@ fn windows_tsv(cases: &[Case], scored: &[Scored]) -> String {
             let e = &d.evidence;
             let _ = writeln!(
                 s,
-                "{}\t{}\t{}\t{k}\t{:.3}\t{:.0}\t{:.2}\t{:.2}\t{:.2}\t{:.2}\t{:.2}\t{:.2}\t{:.2}\t{:.3}\t{:.4}\t{:.3}\t{}\t{}\t{}",
+                "{}\t{}\t{}\t{k}\t{:.3}\t{:.0}\t{:.2}\t{:.2}\t{:.2}\t{:.2}\t{:.2}\t{:.2}\t{:.2}\t{:.2}\t{:.3}\t{:.4}\t{:.3}\t{}\t{}\t{}",
                 c.protocol,
                 c.record,
                 c.truth.name(),
@@ -356,6 +356,7 @@ fn windows_tsv(cases: &[Case], scored: &[Scored]) -> String {
                 e.lines[1].level_db,
                 e.lines[2].level_db,
                 e.cage_db,
+                e.above_cage_db,
                 e.lines[0].impact_to_background_db,
                 e.lines[1].impact_to_background_db,
                 e.lines[2].impact_to_background_db,

@@ -50,6 +50,9 @@ pub enum PhysicsWindow {
         /// The envelope's line at the cage rate over the same median, dB: a ball's
         /// evidence where its own family has no line.
         cage_line_db: f32,
+        /// The strongest envelope line above the cage line, over the same median, dB:
+        /// the cage line must lead it to type a ball.
+        above_cage_db: f32,
     },
     /// Not diagnosed.
     Failed {
@@ -71,6 +74,7 @@ impl PhysicsWindow {
                 spectral_kurtosis: d.evidence.spectral_kurtosis,
                 line_levels_db: d.evidence.lines.map(|l| l.level_db),
                 cage_line_db: d.evidence.cage_db,
+                above_cage_db: d.evidence.above_cage_db,
             },
             Err(e) => Self::Failed {
                 error: e.to_string(),

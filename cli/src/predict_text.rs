@@ -133,6 +133,7 @@ mod tests {
                 spectral_kurtosis: 3.0,
                 line_levels_db: [5.0, 20.0, 4.0],
                 cage_line_db: 6.0,
+                above_cage_db: 8.0,
             },
         }
     }

@@ -26,7 +26,8 @@
 //!   "physics": {"window": n, "fault_type", "confidence", "severity_db",
 //!               "severity_uncertainty_db",
 //!               "width": {"degrees", "uncertainty_deg", "upper_bound"} | null,
-//!               "band_hz", "spectral_kurtosis", "line_levels_db", "cage_line_db"}
+//!               "band_hz", "spectral_kurtosis", "line_levels_db", "cage_line_db",
+//!               "above_cage_db"}
 //!            | {"window", "error"} | null   the latest physical diagnosis of the first
 //!                                      channel over the 16 shaft revolutions ending with
 //!                                      window n (an earlier one: it runs after each
@@ -157,6 +158,7 @@ fn physics_json(window: Option<u64>, p: Option<&PhysicsResult>) -> serde_json::V
             "spectral_kurtosis": d.evidence.spectral_kurtosis,
             "line_levels_db": d.evidence.lines.map(|l| l.level_db),
             "cage_line_db": d.evidence.cage_db,
+            "above_cage_db": d.evidence.above_cage_db,
         }),
     }
 }

@@ -117,22 +117,30 @@ fn background_bins(
 }
 
 /// Level, dB over the same background as the families', of the envelope's line at
-/// the cage rate (FTF): the load zone's modulation of a rolling element's impacts
-/// (module docs of `crate::diagnosis`).
+/// the cage rate (FTF) — the load zone's modulation of a rolling element's impacts
+/// (module docs of `crate::diagnosis`) — and of the strongest bin above that line's
+/// tolerance up to the families' last harmonic: `(cage, strongest above)`.
 pub fn cage_line_db(
     spectra: &BandSpectra<'_>,
     shaft_hz: f32,
     orders: &DefectOrders,
     work: &mut [f32],
-) -> f32 {
+) -> (f32, f32) {
     let (k_hi, _) = background_bins(spectra, shaft_hz, orders);
     let bg = median_level(spectra.es, k_hi, work);
-    let (_, bins) = line_bins(spectra.es, spectra.df, orders.ftf * shaft_hz);
+    let (lo, bins) = line_bins(spectra.es, spectra.df, orders.ftf * shaft_hz);
     let peak = bins.iter().fold(0.0f32, |m, &s| m.max(s));
+    let above = spectra
+        .es
+        .get(lo + bins.len()..=k_hi)
+        .unwrap_or_default()
+        .iter()
+        .fold(0.0f32, |m, &s| m.max(s));
     if bg <= 0.0 {
-        return 0.0;
+        return (0.0, 0.0);
     }
-    10.0 * math::log10f(peak / bg + 1e-12)
+    let db = |v: f32| 10.0 * math::log10f(v / bg + 1e-12);
+    (db(peak), db(above))
 }
 
 /// Every family's evidence in `spectra` for a bearing of `orders` at `shaft_hz`.
