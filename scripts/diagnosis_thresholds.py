@@ -47,7 +47,7 @@ def decide(sk, lv, cage, line, margin, impulsive, above=0.0):
     if best < line and sk < impulsive:
         return "normal", line - best
     if cage is not None and best < line and sk >= impulsive and cage >= CAGE_LINE_DB and cage - max(best, above) >= margin:
-        return "ball", cage - best - margin
+        return "ball", cage - max(best, above) - margin
     return "no_clear_signature", 0.0
 
 

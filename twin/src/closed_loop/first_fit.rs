@@ -741,9 +741,10 @@ fn identify_fault(
     }
     // Where no family stands out, a ball may still be there: its spot wanders as it
     // spins, so its strikes lose their rhythm, but it passes the load zone once per
-    // cage turn whatever it points at, and the cage rate's own lines decide, as where
-    // the families coincide (`pumptwin_core::diagnosis` reads the cage line the same
-    // way).
+    // cage turn whatever it points at, and the cage rate's own lines decide, read as
+    // where the families coincide (FTF and 2·FTF over their local floors, at the
+    // family threshold). `pumptwin_core::diagnosis` asks more of its cage line (15 dB
+    // over the envelope's median, leading every family and every line above it).
     let cage_db = family_level_db(env, df, f.ftf, &[]);
     ev.insert("ftf_db".into(), serde_json::json!(cage_db));
     if cage_db >= threshold {
