@@ -3,6 +3,7 @@
 //! declared).
 
 use super::context::{load_zone_line, TraceContext, NAMED_RATE_TOLERANCE};
+use super::null::NullTest;
 use crate::residual::{
     on_model_comb, refine_comb_rate, Candidate, Check, Component, Evidence, ResidualAnalysis,
 };
@@ -23,6 +24,9 @@ pub struct SecondTrain {
     pub harmonics: Vec<u32>,
     /// The matched envelope lines.
     pub lines: Vec<Component>,
+    /// Where the train was read at a told rate rather than off the residual's lines
+    /// (`super::told_defect`): its family's level against the model's realizations.
+    pub null: Option<NullTest>,
 }
 
 /// Relative distance from the modelled defect rate (and its multiples and
@@ -153,6 +157,7 @@ pub fn second_train(
         source,
         harmonics,
         lines: idx.iter().map(|&i| lines[i].clone()).collect(),
+        null: None,
     })
 }
 
@@ -228,6 +233,7 @@ fn defect_family(
                     source: fault_name(Some(loc)),
                     harmonics,
                     lines: matched.iter().map(|&(i, _)| lines[i].clone()).collect(),
+                    null: None,
                 };
                 best = Some((score, train));
             }
@@ -242,7 +248,7 @@ fn defect_family(
 /// that coincides with it, which no envelope can tell apart (`--seed 5` case 243:
 /// BPFO 0.6 % from 2·BSF, the outer race's own teeth read as a ball; case 69: BPFI
 /// 1.5 % from 2·BSF).
-fn near_own_rate(r: f64, fd: f64) -> bool {
+pub(super) fn near_own_rate(r: f64, fd: f64) -> bool {
     let near = |a: f64, b: f64| (a - b).abs() < OWN_RATE_EXCLUSION * b;
     (1..=4).any(|j| near(r, fd * f64::from(j)) || near(r, fd / f64::from(j)))
 }
@@ -357,6 +363,14 @@ pub(super) fn candidate(t: SecondTrain, ctx: &TraceContext<'_>, out: &mut Vec<Ca
             t.lines.iter().map(|c| c.excess_db).fold(0.0, f32::max) + t.harmonics.len() as f32;
         let mut figures = serde_json::Map::new();
         figures.insert("harmonics".into(), serde_json::json!(t.harmonics));
+        let told = t.null.map_or(String::new(), |n| {
+            figures.insert("null_test".into(), n.figures("told_family_level_db"));
+            format!(
+                " (read at the rate the geometry tells: {:.1} dB over the floor, {:.1} standard deviations beyond the model's own realizations)",
+                n.observed,
+                n.z()
+            )
+        });
         out.push(Candidate {
             effect: Effect::SecondImpactTrain {
                 rate_hz: t.rate_hz,
@@ -364,7 +378,7 @@ pub(super) fn candidate(t: SecondTrain, ctx: &TraceContext<'_>, out: &mut Vec<Ca
             },
             evidence: Evidence {
                 summary: format!(
-                    "{} envelope line(s) the model lacks at harmonics {:?} of {:.2} Hz = {:.3} x shaft: {what}",
+                    "{} envelope line(s) the model lacks at harmonics {:?} of {:.2} Hz = {:.3} x shaft{told}: {what}",
                     t.lines.len(),
                     t.harmonics,
                     t.rate_hz,

@@ -8,6 +8,7 @@
 //! | [`bands`] | PSD bands, the band-limited kurtosis | a structural mode, a band at the sensor, random bursts, random impacts |
 //! | [`modulation`] | envelope sidebands | a load-zone (or other) modulation of the impacts |
 //! | [`impact_train`] | envelope harmonic families | a second impact train |
+//! | `told_defect` | the envelope at the defect rates the geometry tells, against the model's realizations | a second defect too weak for the line search |
 //! | [`comb`] | the defect comb's contrast by order | slip, speed drift |
 //! | [`stiffness`] | ring-down frequencies | nonlinear stiffness |
 //!
@@ -22,6 +23,7 @@ pub mod lines;
 pub mod modulation;
 pub mod null;
 pub mod stiffness;
+mod told_defect;
 
 pub use context::TraceContext;
 pub use impact_train::{second_train, SecondTrain};
@@ -29,7 +31,7 @@ pub use modulation::{measured_modulation, MeasuredModulation};
 pub use null::{KeptDraws, NullDraws, NullTest};
 
 use crate::residual::{Candidate, ResidualAnalysis};
-use crate::twin::EffectKind;
+use crate::twin::{Effect, EffectKind};
 use context::has;
 
 /// Trace the residual to candidate effects the model lacks (strongest first; equal
@@ -42,7 +44,22 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
     let train = if has(model, EffectKind::SecondImpactTrain) {
         None
     } else {
-        second_train(analysis, model, ctx.cfg, &ctx.meas_psd_db, span_s)
+        // A family read off the residual's lines that names a bearing defect first;
+        // else a defect at a rate the geometry tells (`told_defect`), whose null test
+        // is more specific than a family of lines at a rate nothing names.
+        match second_train(analysis, model, ctx.cfg, &ctx.meas_psd_db, span_s) {
+            Some(t)
+                if Effect::SecondImpactTrain {
+                    rate_hz: t.rate_hz,
+                    source: t.source.to_string(),
+                }
+                .second_train_location()
+                .is_some() =>
+            {
+                Some(t)
+            }
+            other => told_defect::told_defect(ctx).or(other),
+        }
     };
     let mut out: Vec<Candidate> = Vec::new();
     lines::trace(analysis, ctx, train.as_ref(), &mut out);
