@@ -252,13 +252,7 @@ impl Effect {
         let Effect::SecondImpactTrain { source, .. } = self else {
             return None;
         };
-        [
-            DefectLocation::OuterRace,
-            DefectLocation::InnerRace,
-            DefectLocation::Ball,
-        ]
-        .into_iter()
-        .find(|loc| fault_name(Some(*loc)) == source)
+        location_named(source)
     }
 
     /// Names and initial unconstrained values of the parameters it adds, from what the
@@ -420,6 +414,17 @@ pub fn fault_name(fault: Option<DefectLocation>) -> &'static str {
         Some(DefectLocation::InnerRace) => "inner_race",
         Some(DefectLocation::Ball) => "ball",
     }
+}
+
+/// The bearing defect [`fault_name`] names `source`, if it names one.
+pub fn location_named(source: &str) -> Option<DefectLocation> {
+    [
+        DefectLocation::OuterRace,
+        DefectLocation::InnerRace,
+        DefectLocation::Ball,
+    ]
+    .into_iter()
+    .find(|loc| fault_name(Some(*loc)) == source)
 }
 
 #[cfg(test)]

@@ -30,8 +30,9 @@ pub use impact_train::{second_train, SecondTrain};
 pub use modulation::{measured_modulation, MeasuredModulation};
 pub use null::{KeptDraws, NullDraws, NullTest};
 
+use crate::effect::location_named;
 use crate::residual::{Candidate, ResidualAnalysis};
-use crate::twin::{Effect, EffectKind};
+use crate::twin::EffectKind;
 use context::has;
 
 /// Trace the residual to candidate effects the model lacks (strongest first; equal
@@ -48,16 +49,7 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
         // else a defect at a rate the geometry tells (`told_defect`), whose null test
         // is more specific than a family of lines at a rate nothing names.
         match second_train(analysis, model, ctx.cfg, &ctx.meas_psd_db, span_s) {
-            Some(t)
-                if Effect::SecondImpactTrain {
-                    rate_hz: t.rate_hz,
-                    source: t.source.to_string(),
-                }
-                .second_train_location()
-                .is_some() =>
-            {
-                Some(t)
-            }
+            Some(t) if location_named(t.source).is_some() => Some(t),
             other => told_defect::told_defect(ctx).or(other),
         }
     };

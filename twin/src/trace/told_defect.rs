@@ -21,7 +21,8 @@ use crate::twin::fault_name;
 use pumptwin_core::bearing::DefectLocation;
 
 /// Least mean level of a told family's lines over their local floors, dB: the
-/// physical minimum beside the null test (chosen on `--seed 7`).
+/// physical minimum beside the null test (a line twice its floor's power; set before
+/// any run and kept on `--seed 7`, not swept).
 pub const TOLD_MIN_DB: f32 = 3.0;
 /// Harmonics of the told rate read.
 const HARMONICS: u32 = 3;
@@ -32,9 +33,16 @@ const SCAN_STEP: f64 = 0.001;
 /// Envelope bins on each side of a member its floor is read over.
 const FLOOR_BINS: usize = 32;
 
-/// The told family of defect `loc` in one record's envelope spectrum `spec` (bin
-/// width `df`): the scan's best scale, its mean level over the members' floors (dB)
-/// and each member's `(frequency, level dB)`.
+/// One scale of the slip scan: the scale and the frequencies of the family's members
+/// there that no other source takes.
+struct Scaled {
+    scale: f64,
+    members: Vec<f64>,
+}
+
+/// The told family read in one record's envelope spectrum: the scan's best scale,
+/// its mean level over the members' floors (dB) and each member's `(frequency, level
+/// dB)`.
 struct Reading {
     level_db: f32,
     members: Vec<(f64, f32)>,
@@ -83,7 +91,9 @@ pub(super) fn told_defect(ctx: &TraceContext<'_>) -> Option<SecondTrain> {
             continue;
         }
         let fm = f64::from(freqs.modulation_rate(loc));
-        let read = |spec: &[f32]| read_family(spec, df, fd, fm, env_max, &taken, &tol);
+        // Which members are free is the same for the record and every draw.
+        let family = family_members(fd, fm, env_max, &taken);
+        let read = |spec: &[f32]| read_family(spec, df, &family, &tol);
         let Some(r) = read(&meas) else { continue };
         // An impact train's strongest envelope line is its fundamental: without it,
         // lines at its harmonics are other sources' (as in `defect_family`).
@@ -119,9 +129,6 @@ pub(super) fn told_defect(ctx: &TraceContext<'_>) -> Option<SecondTrain> {
             centre_hz: None,
         })
         .collect();
-    if lines.is_empty() {
-        return None;
-    }
     lines.sort_by(|a, b| a.f_hz.total_cmp(&b.f_hz));
     let mut harmonics: Vec<u32> = lines
         .iter()
@@ -137,32 +144,42 @@ pub(super) fn told_defect(ctx: &TraceContext<'_>) -> Option<SecondTrain> {
     })
 }
 
-/// The family at `fd` (load zone `fm`, none for 0) in `spec`, scanned over the slip
-/// ([`SCAN`] about `fd`): members `k·fd + m·fm` (`k` ≤ [`HARMONICS`], `|m|` ≤ 1) up
-/// to `env_max` that `taken` leaves free, each read as its peak within `tol` over
-/// the median of [`FLOOR_BINS`] bins on either side; the scale whose mean level is
-/// highest. `None` where no member is free.
+/// The family at `fd` (load zone `fm`, none for 0) over the slip scan ([`SCAN`]
+/// about `fd`): at each scale, the members `k·fd + m·fm` (`k` ≤ [`HARMONICS`], `|m|`
+/// ≤ 1) up to `env_max` that `taken` leaves free.
+fn family_members(fd: f64, fm: f64, env_max: f64, taken: &dyn Fn(f64) -> bool) -> Vec<Scaled> {
+    let steps = (SCAN / SCAN_STEP).round() as i32;
+    let ms: &[i32] = if fm > 0.0 { &[-1, 0, 1] } else { &[0] };
+    (-steps..=steps)
+        .map(|step| {
+            let scale = 1.0 + f64::from(step) * SCAN_STEP;
+            let members = (1..=HARMONICS)
+                .flat_map(|k| {
+                    ms.iter()
+                        .map(move |&m| f64::from(k) * fd * scale + f64::from(m) * fm)
+                })
+                .filter(|&f| f > 0.0 && f <= env_max && !taken(f))
+                .collect();
+            Scaled { scale, members }
+        })
+        .collect()
+}
+
+/// `family` read in `spec` (bin width `df`): each member as its peak within `tol`
+/// over the median of [`FLOOR_BINS`] bins on either side; the scale whose mean level
+/// is highest. `None` where no member can be read.
 fn read_family(
     spec: &[f32],
     df: f64,
-    fd: f64,
-    fm: f64,
-    env_max: f64,
-    taken: &dyn Fn(f64) -> bool,
+    family: &[Scaled],
     tol: &dyn Fn(f64) -> f64,
 ) -> Option<Reading> {
-    let steps = (SCAN / SCAN_STEP).round() as i32;
-    let ms: &[i32] = if fm > 0.0 { &[-1, 0, 1] } else { &[0] };
     let mut best: Option<Reading> = None;
-    for step in -steps..=steps {
-        let scale = 1.0 + f64::from(step) * SCAN_STEP;
-        let members: Vec<(f64, f32)> = (1..=HARMONICS)
-            .flat_map(|k| {
-                ms.iter()
-                    .map(move |&m| f64::from(k) * fd * scale + f64::from(m) * fm)
-            })
-            .filter(|&f| f > 0.0 && f <= env_max && !taken(f))
-            .filter_map(|f| member_level(spec, df, f, tol(f)))
+    for s in family {
+        let members: Vec<(f64, f32)> = s
+            .members
+            .iter()
+            .filter_map(|&f| member_level(spec, df, f, tol(f)))
             .collect();
         if members.is_empty() {
             continue;
@@ -177,7 +194,7 @@ fn read_family(
             best = Some(Reading {
                 level_db,
                 members,
-                scale,
+                scale: s.scale,
             });
         }
     }
@@ -226,22 +243,22 @@ mod tests {
     #[test]
     fn a_family_reads_its_lines_over_their_floor_and_leaves_taken_ones() {
         let tol = |f: f64| 1.5f64.max(0.005 * f);
+        let family = |taken: &dyn Fn(f64) -> bool| family_members(100.0, 0.0, 999.0, taken);
         let free = |_: f64| false;
         let on_rate = flat_with_lines(&[100, 200, 300]);
-        let r = read_family(&on_rate, 1.0, 100.0, 0.0, 999.0, &free, &tol).expect("read");
+        let r = read_family(&on_rate, 1.0, &family(&free), &tol).expect("read");
         assert!((r.level_db - 10.0).abs() < 0.01, "{}", r.level_db);
         assert_eq!(r.members.len(), 3);
         let slow = flat_with_lines(&[99, 198, 297]);
-        let r = read_family(&slow, 1.0, 100.0, 0.0, 999.0, &free, &tol).expect("read");
+        let r = read_family(&slow, 1.0, &family(&free), &tol).expect("read");
         assert!((r.level_db - 10.0).abs() < 0.01, "{}", r.level_db);
         assert!((r.scale - 0.99).abs() < 0.0015, "{}", r.scale);
         let taken = |f: f64| (f - 200.0).abs() < 3.0;
         let half = flat_with_lines(&[100, 300]);
-        let r = read_family(&half, 1.0, 100.0, 0.0, 999.0, &taken, &tol).expect("read");
+        let r = read_family(&half, 1.0, &family(&taken), &tol).expect("read");
         assert_eq!(r.members.len(), 2);
         assert!((r.level_db - 10.0).abs() < 0.01, "{}", r.level_db);
-        let r =
-            read_family(&flat_with_lines(&[]), 1.0, 100.0, 0.0, 999.0, &free, &tol).expect("read");
+        let r = read_family(&flat_with_lines(&[]), 1.0, &family(&free), &tol).expect("read");
         assert!(r.level_db.abs() < 0.01, "noise-free floor: {}", r.level_db);
     }
 }
