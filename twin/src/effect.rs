@@ -354,6 +354,11 @@ impl Effect {
             }
             // Half the modelled defect's impact level, or (healthy model) twenty times
             // the background force; the refit's second start tries a twentieth of it.
+            // A defect its load zone modulates gets the zone's ε, from ½ (±90°), as
+            // the base's: Harris's zone, not a cosine, because a bearing with
+            // clearance loads under half its turn and a cosine cannot leave the
+            // impacts out of the rest (on `--seed 7` case 174, an inner race read
+            // second with a cosine needed random bursts beside it to fit).
             Effect::SecondImpactTrain { .. } => {
                 let start = if impact_amp > 0.0 {
                     0.5 * impact_amp
@@ -365,7 +370,7 @@ impl Effect {
                     .second_train_location()
                     .is_some_and(|loc| freqs.modulation_rate(loc) > 0.0)
                 {
-                    v.push(("logit_modulation2_depth".into(), 0.0));
+                    v.push(("ln_zone2_eps".into(), 0.5f64.ln()));
                 }
                 v
             }
