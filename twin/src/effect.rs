@@ -449,4 +449,17 @@ mod tests {
         assert!(harris_zone(edge - 0.01, 0.3) > 0.0);
         assert_eq!(harris_zone(edge + 0.01, 0.3), 0.0);
     }
+
+    /// A wide zone (ε > ½, every element loaded) is the cosine modulation of depth
+    /// 1.5/ε: ε = 5 leaves 1 − 0.3 at the far side and follows the cosine between.
+    #[test]
+    fn a_wide_harris_zone_is_a_cosine_modulation() {
+        let eps = 5.0;
+        let depth = 1.5 / eps;
+        for k in 0..=12 {
+            let theta = PI * f64::from(k) / 12.0;
+            let cosine = 1.0 - 0.5 * depth * (1.0 - theta.cos());
+            assert!((harris_zone(theta, eps) - cosine).abs() < 0.02, "θ {theta}");
+        }
+    }
 }

@@ -260,6 +260,24 @@ mod tests {
         spec
     }
 
+    /// The first defect's load zone owns its sidebands out to the fourth order on
+    /// each side of every tooth, and the modulation's own lines; not the fifth.
+    #[test]
+    fn a_load_zone_owns_its_sidebands_to_the_fourth_order() {
+        let (fd, fm, tol) = (333.4, 33.8, 1.0);
+        for m in 1..=ZONE_SIDEBANDS {
+            let side = f64::from(m) * fm;
+            for k in 1..=3 {
+                let tooth = f64::from(k) * fd;
+                assert!(own_zone_line(tooth - side, fd, fm, tol), "{k}·fd − {m}·fm");
+                assert!(own_zone_line(tooth + side, fd, fm, tol), "{k}·fd + {m}·fm");
+            }
+            assert!(own_zone_line(side, fd, fm, tol), "{m}·fm");
+        }
+        assert!(!own_zone_line(fd - 5.0 * fm, fd, fm, tol));
+        assert!(!own_zone_line(fd + 0.5 * fm, fd, fm, tol));
+    }
+
     /// A family's lines read 10 dB over a flat floor wherever the slip puts them
     /// within the scan; a member another source takes is left out of the mean.
     #[test]
