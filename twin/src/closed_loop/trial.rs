@@ -78,20 +78,6 @@ fn refit_with_drift(
 /// eleven of them.
 const TRIAL_MIN_GAIN: f32 = 1e-4;
 
-/// The gap a candidate's lines must fall to (mean over its lines of the measured
-/// over the model, dB, the largest of the three bins about each) to be explained:
-/// 3 dB below where it was, or half of it, whichever is less demanding. Lines the
-/// residual's search finds stand 10 dB out, and there 3 dB is the test. Lines read
-/// at a rate the geometry tells stand 3–8 dB over their floor, and an exact model
-/// leaves a gap of about 2 dB on them (the largest of three differences of two
-/// Welch estimates), so a 3 dB fall from 5 asks the model to match them closer
-/// than its own realizations match each other. On `--seed 7` case 27 (an outer
-/// race with an inner race at 0.54 of its strength) the told family's gap fell
-/// 5.31 → 2.42 dB, every line within 2 dB of the record's.
-fn lines_explained(before: f32) -> f32 {
-    (before - 3.0).max(0.5 * before)
-}
-
 /// The cost gain an explained family of lines (two or more at shaft orders, half
 /// orders or mains harmonics) needs to be kept; other effects need 1 % (see `judge`).
 const FAMILY_MIN_GAIN: f32 = 0.002;
@@ -415,8 +401,7 @@ impl Trial<'_> {
     }
 
     // Whether a refit passes: the effect must explain its own evidence (the
-    // statistic behind it halves, or the lines drop by 3 dB or to half their gap,
-    // `LINES_EXPLAINED`) and lower the global
+    // statistic behind it halves, or the lines drop by 3 dB) and lower the global
     // error by at least 1 %, or lower it by `min_relative_gain` on its own; and
     // it must not buy that with the figures the report shows: the PSD and
     // envelope errors may trade against each other (a second mode fixes the PSD
@@ -436,7 +421,7 @@ impl Trial<'_> {
         let (y_trial, trial_sig) = self.s.residual_of(&trial.model)?;
         let after = self.gap(cand, &y_trial, &trial_sig);
         let explained = match cand.check {
-            Check::Lines | Check::Mode { .. } => after <= lines_explained(before),
+            Check::Lines | Check::Mode { .. } => after <= before - 3.0,
             _ => after <= 0.5 * before,
         };
         // A family of two or more lines at the shaft's orders or half orders or
