@@ -770,14 +770,9 @@ impl TwinModel {
         // The base's load zone (Harris): the impacts scaled by where the defect is
         // in the zone, at the rate it turns through it (following a drift).
         if let Some((Effect::LoadZone { mod_hz }, p)) = self.effect_params(EffectKind::LoadZone) {
-            let eps = p[0].value.exp();
+            // Only the impacts are scaled (the force holds nothing else yet).
             let w = 2.0 * std::f64::consts::PI * centre * mod_hz;
-            // Only the impacts are scaled (the force holds nothing else yet): the zone
-            // is evaluated where a pulse is, not at every half step.
-            for (j, f) in force_r.iter_mut().enumerate().filter(|(_, f)| **f != 0.0) {
-                let t = grid.t0 + j as f64 * grid.dt;
-                *f *= crate::effect::harris_zone(w * (t + 0.5 * drift * t * t), eps);
-            }
+            through_zone(force_r, grid, w, drift, p[0].value.exp());
         }
         // A further modulation of the same impacts (a load that varies at a rate of its
         // own, a process pulsation, on top of the load zone the train carries): their
@@ -828,23 +823,31 @@ impl TwinModel {
                 let mod_hz = location.map_or(0.0, |loc| {
                     centre * f64::from(self.op.freqs.modulation_rate(loc))
                 });
-                let depth = match p.get(1) {
-                    Some(q) if mod_hz > 0.0 => 1.0 / (1.0 + (-q.value).exp()),
-                    _ => 0.0,
-                };
                 let train = ImpactTrain {
                     amplitude: p[0].value.exp(),
                     rate_hz: centre * rate_hz,
                     sigma_s: IMPACT_SIGMA_S,
                     first_impact_s: 0.61 / rate_hz,
-                    modulation_depth: depth,
+                    modulation_depth: 0.0,
                     modulation_hz: mod_hz,
                     jitter: if bearing_defect { jitter } else { 0.0 },
                     walk: if bearing_defect { walk } else { 0.0 },
                     amplitude_spread: if bearing_defect { spread } else { 0.0 },
                     rate_drift_per_s: drift,
                 };
-                train.add_to(grid, 1.0, force_r, rng)?;
+                // Its load zone is Harris's, as the first defect's: the same bearing
+                // under the same load (its own ε, fitted: see `ZONE2_EPS`).
+                match p.get(1).filter(|_| mod_hz > 0.0) {
+                    None => train.add_to(grid, 1.0, force_r, rng)?,
+                    Some(q) => {
+                        let mut own = vec![0.0f64; force_r.len()];
+                        train.add_to(grid, 1.0, &mut own, rng)?;
+                        let eps = q.value.exp().clamp(ZONE2_EPS.0, ZONE2_EPS.1);
+                        let w = 2.0 * std::f64::consts::PI * mod_hz;
+                        through_zone(&mut own, grid, w, drift, eps);
+                        force_r.iter_mut().zip(&own).for_each(|(f, o)| *f += o);
+                    }
+                }
             }
         }
         Ok(())
@@ -1157,6 +1160,22 @@ fn add_random_bursts(y: &mut [f32], fs: f64, [level, rate, ring, width]: [f64; 4
             *v +=
                 (a * (-decay * tau).exp() * (2.0 * std::f64::consts::PI * ring * tau).sin()) as f32;
         }
+    }
+}
+
+/// Bounds of a second impact train's load-zone factor ε (Harris). Below ½ the zone
+/// spans less than the turn (±66–90° at 0.3–0.5, a bearing with clearance); above ½
+/// every element is loaded and the impacts only vary in strength, as `1 − (0.75/ε)(1 −
+/// cos θ)` for large ε: the cosine modulation of depth `1.5/ε` (20: depth 0.075). A
+/// zone narrower than 0.05 (±25°) loads one element at a time.
+const ZONE2_EPS: (f64, f64) = (0.05, 20.0);
+
+/// Scale the impacts in `force` (its non-zero samples: the zone is evaluated where a
+/// pulse is) by Harris's load zone `q(θ)` turning at `w` rad/s, following a drift.
+fn through_zone(force: &mut [f64], grid: TimeGrid, w: f64, drift: f64, eps: f64) {
+    for (j, f) in force.iter_mut().enumerate().filter(|(_, f)| **f != 0.0) {
+        let t = grid.t0 + j as f64 * grid.dt;
+        *f *= crate::effect::harris_zone(w * (t + 0.5 * drift * t * t), eps);
     }
 }
 

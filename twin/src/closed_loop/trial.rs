@@ -78,6 +78,20 @@ fn refit_with_drift(
 /// eleven of them.
 const TRIAL_MIN_GAIN: f32 = 1e-4;
 
+/// The gap a candidate's lines must fall to (mean over its lines of the measured
+/// over the model, dB, the largest of the three bins about each) to be explained:
+/// 3 dB below where it was, or half of it, whichever is less demanding. Lines the
+/// residual's search finds stand 10 dB out, and there 3 dB is the test. Lines read
+/// at a rate the geometry tells stand 3–8 dB over their floor, and an exact model
+/// leaves a gap of about 2 dB on them (the largest of three differences of two
+/// Welch estimates), so a 3 dB fall from 5 asks the model to match them closer
+/// than its own realizations match each other. On `--seed 7` case 27 (an outer
+/// race with an inner race at 0.54 of its strength) the told family's gap fell
+/// 5.31 → 2.42 dB, every line within 2 dB of the record's.
+fn lines_explained(before: f32) -> f32 {
+    (before - 3.0).max(0.5 * before)
+}
+
 /// The cost gain an explained family of lines (two or more at shaft orders, half
 /// orders or mains harmonics) needs to be kept; other effects need 1 % (see `judge`).
 const FAMILY_MIN_GAIN: f32 = 0.002;
@@ -242,7 +256,8 @@ impl Trial<'_> {
 
     // `budget`: the model evaluations left to the loop; a refit that reaches it ends
     // where it stands and is judged there, so the loop's cost stays bounded.
-    fn attempt(&self, cand: &Candidate, budget: usize) -> (Outcome, usize) {
+    // `weak_too`: whether a start that does not pass is followed by the weak start.
+    fn attempt(&self, cand: &Candidate, budget: usize, weak_too: bool) -> (Outcome, usize) {
         let mut evaluations = 0;
         let excess = |f: f64, half: f64| self.excess(f, half);
         let mut start = self.current.model.with_effect(cand.effect.clone(), &excess);
@@ -294,7 +309,7 @@ impl Trial<'_> {
         // parameters are logarithmic, so "none" itself is out of reach) and the
         // model as it was: the lower end is judged, so a real effect is not lost to
         // a poor starting point.
-        if !matches!(&outcome, Ok((_, v)) if v.passes) && evaluations < budget {
+        if weak_too && !matches!(&outcome, Ok((_, v)) if v.passes) && evaluations < budget {
             let weak = self.weak_start(cand);
             if let Ok((w, v)) = self.fitted(cand, plan, before, &weak, budget - evaluations) {
                 evaluations += w.evaluations;
@@ -401,7 +416,8 @@ impl Trial<'_> {
     }
 
     // Whether a refit passes: the effect must explain its own evidence (the
-    // statistic behind it halves, or the lines drop by 3 dB) and lower the global
+    // statistic behind it halves, or the lines drop by 3 dB or to half their gap,
+    // `LINES_EXPLAINED`) and lower the global
     // error by at least 1 %, or lower it by `min_relative_gain` on its own; and
     // it must not buy that with the figures the report shows: the PSD and
     // envelope errors may trade against each other (a second mode fixes the PSD
@@ -421,7 +437,7 @@ impl Trial<'_> {
         let (y_trial, trial_sig) = self.s.residual_of(&trial.model)?;
         let after = self.gap(cand, &y_trial, &trial_sig);
         let explained = match cand.check {
-            Check::Lines | Check::Mode { .. } => after <= before - 3.0,
+            Check::Lines | Check::Mode { .. } => after <= lines_explained(before),
             _ => after <= 0.5 * before,
         };
         // A family of two or more lines at the shaft's orders or half orders or
@@ -549,14 +565,20 @@ impl Trial<'_> {
 
     // A candidate tried within the budget: `None` when the budget is spent (nothing
     // tried), `Some(None)` when its refit failed (it is rejected for that).
-    fn try_one(&self, cand: &Candidate, t: &mut Trials) -> Option<Option<(FitResult, Verdict)>> {
+    // `weak_too` as in `attempt`.
+    fn try_one(
+        &self,
+        cand: &Candidate,
+        t: &mut Trials,
+        weak_too: bool,
+    ) -> Option<Option<(FitResult, Verdict)>> {
         let max = self.s.cfg.max_evaluations;
         if t.evaluations >= max {
             t.budget_spent = true;
             return None;
         }
         t.tried.push(tried_key(&cand.effect));
-        let (outcome, n) = self.attempt(cand, max - t.evaluations);
+        let (outcome, n) = self.attempt(cand, max - t.evaluations, weak_too);
         t.evaluations += n;
         Some(
             outcome
@@ -597,7 +619,7 @@ impl Trial<'_> {
             .filter(|(_, c)| primary(c))
             .take(3)
         {
-            let Some(fitted) = self.try_one(cand, trials) else {
+            let Some(fitted) = self.try_one(cand, trials, true) else {
                 break;
             };
             let Some((trial, verdict)) = fitted else {
@@ -648,7 +670,14 @@ impl Trial<'_> {
     ) -> (Candidate, FitResult) {
         let mut best = (cand.clone(), trial);
         for rival in later.iter().filter(|r| shares_evidence(r, cand)) {
-            let Some(fitted) = self.try_one(rival, trials) else {
+            // One start: the weak start keeps a real effect from being lost to a
+            // poor starting point, and a rival's lines are explained already, by
+            // a reading that passed; its second start would cost the budget as
+            // much as its first. On CWRU 234 with a tone added, an inner race
+            // read off an outer race's shaft sidebands (the rival of their
+            // modulation) spent the budget on its second start before the tone
+            // was tried.
+            let Some(fitted) = self.try_one(rival, trials, false) else {
                 break;
             };
             let Some((rt, rv)) = fitted else {

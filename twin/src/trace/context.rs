@@ -6,6 +6,7 @@ use crate::residual::{Component, Evidence};
 use crate::signature::SignatureConfig;
 use crate::twin::EffectKind;
 use crate::twin::{Effect, TwinModel};
+use pumptwin_core::bearing::DefectLocation;
 use std::ops::Range;
 
 /// What the tracer is told about the measurement.
@@ -74,6 +75,20 @@ pub(crate) fn modulation_rates(model: &TwinModel) -> Vec<f64> {
             Effect::LoadZoneModulation { mod_hz } | Effect::LoadZone { mod_hz } => Some(*mod_hz),
             _ => None,
         })
+        .collect()
+}
+
+/// The rates, Hz, a defect at `loc` has its impacts modulated at in the model: its
+/// kinematic load-zone rate (shaft for an inner race, cage for a ball; none for an
+/// outer race) and every modulation the model carries. Envelope lines at
+/// `k·f_d ± m·f_m` for any of them are the first defect's, not a second one's: on
+/// CWRU 234 (an outer race, 0 HP) a shaft-rate modulation kept in the first round
+/// left BPFO + 2·f_r (167.3 Hz) to be read as an inner race's rate in the next.
+pub(crate) fn impact_modulations(model: &TwinModel, loc: DefectLocation) -> Vec<f64> {
+    let kinematic = f64::from(model.op.freqs.modulation_rate(loc));
+    std::iter::once(kinematic)
+        .chain(modulation_rates(model))
+        .filter(|&m| m > 0.0)
         .collect()
 }
 

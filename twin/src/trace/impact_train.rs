@@ -2,7 +2,7 @@
 //! (a compound fault, a rub, impacts once or k times per turn, or a source nobody
 //! declared).
 
-use super::context::{load_zone_line, TraceContext, NAMED_RATE_TOLERANCE};
+use super::context::{impact_modulations, load_zone_line, TraceContext, NAMED_RATE_TOLERANCE};
 use super::null::NullTest;
 use crate::residual::{
     on_model_comb, refine_comb_rate, Candidate, Check, Component, Evidence, ResidualAnalysis,
@@ -53,19 +53,16 @@ pub fn second_train(
     let dfe = f64::from(cfg.fs_hz) / cfg.env_n as f64;
     let freqs = &model.op.freqs;
     let shaft = f64::from(freqs.shaft);
-    let own = model.fault.map(|loc| {
-        (
-            model.comb_rate_hz(loc),
-            f64::from(freqs.modulation_rate(loc)),
-        )
-    });
+    let own = model
+        .fault
+        .map(|loc| (model.comb_rate_hz(loc), impact_modulations(model, loc)));
     let tol = |f: f64| (1.5 * dfe).max(0.005 * f);
-    // Lines the modelled defect's modulation puts there (k·f_d ± m·f_mod, m·f_mod, m ≤ 2)
-    // are that effect's evidence, not a second train's — also once the model modulates:
-    // its load zone is a cosine, and a real one's second harmonic stays in the residual.
-    let modulation_line = |f: f64| match own {
-        Some((fd, fm)) if fm > 0.0 => load_zone_line(f, fd, fm, tol(f)),
-        _ => false,
+    // Lines the modelled defect's modulations put there (k·f_d ± m·f_mod, m·f_mod, m ≤ 2)
+    // are those effects' evidence, not a second train's — also once the model
+    // modulates: a real zone's second harmonic stays in the residual.
+    let modulation_line = |f: f64| match &own {
+        Some((fd, fms)) => fms.iter().any(|&fm| load_zone_line(f, *fd, fm, tol(f))),
+        None => false,
     };
     let lines: Vec<&Component> = analysis
         .envelope
@@ -73,7 +70,7 @@ pub fn second_train(
         .filter(|c| c.kind == Kind::Line && c.f_hz >= 5.0)
         .filter(|c| !on_model_comb(model, c, dfe, span_s) && !modulation_line(c.f_hz))
         .collect();
-    let own_rate = own.map(|(fd, _)| fd);
+    let own_rate = own.as_ref().map(|(fd, _)| *fd);
     if let Some(t) = defect_family(&lines, model, own_rate, &tol, f64::from(cfg.env_max_hz)) {
         return Some(SecondTrain {
             rate_hz: refine_comb_rate(meas_psd_db, cfg, t.rate_hz, 0.004),
@@ -129,7 +126,7 @@ pub fn second_train(
                     continue;
                 }
             }
-            if own.is_some_and(|(fd, _)| near_own_rate(r, fd)) {
+            if own_rate.is_some_and(|fd| near_own_rate(r, fd)) {
                 continue;
             }
             let idx: Vec<usize> = matched.iter().map(|&(i, _)| i).collect();
@@ -424,6 +421,24 @@ mod tests {
         let refs: Vec<&Component> = lines.iter().collect();
         let own = m.fault.map(|loc| f64::from(m.op.freqs.impact_rate(loc)));
         defect_family(&refs, m, own, &|f| (1.5 * 1.46f64).max(0.005 * f), 1000.0)
+    }
+
+    /// A stationary outer race has no load zone of its own, but a shaft-rate
+    /// modulation the loop kept owns its sidebands as an inner race's zone does.
+    #[test]
+    fn a_kept_modulation_owns_its_sidebands() {
+        let outer = model(DefectLocation::OuterRace);
+        assert!(impact_modulations(&outer, DefectLocation::OuterRace).is_empty());
+        let inner = model(DefectLocation::InnerRace);
+        assert_eq!(
+            impact_modulations(&inner, DefectLocation::InnerRace),
+            vec![f64::from(inner.op.freqs.shaft)]
+        );
+        let kept = outer.with_effect(Effect::LoadZoneModulation { mod_hz: 29.95 }, &|_, _| None);
+        assert_eq!(
+            impact_modulations(&kept, DefectLocation::OuterRace),
+            vec![29.95]
+        );
     }
 
     /// A ball's envelope on an outer-race model: the cage rate's lines and 2·BSF with
