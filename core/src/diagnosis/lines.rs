@@ -70,7 +70,43 @@ fn family_level_db(es: &[f32], df: f32, f0: f32, others: [f32; 2], max_hz: f32, 
 /// lobe's power above the background over the band's power (module docs of
 /// the module docs of `crate::diagnosis`); `(value, uncertainty)` in dB.
 fn severity_db(ses: &[f32], df: f32, f0: f32, bg: f32, p0: f32) -> (f32, f32) {
-    let (lo, bins) = line_bins(ses, df, f0);
+    let (line, sigma) = lobe_power(ses, df, f0, bg);
+    let amplitude = math::sqrtf(2.0 * line.max(sigma));
+    let share = if p0 > 0.0 {
+        (0.5 * amplitude / p0).clamp(1e-6, 0.999)
+    } else {
+        1e-6
+    };
+    let value = 10.0 * math::log10f(share / (1.0 - share));
+    // s ∝ √line: d(dB) = 10/ln10 · (½·σ/line) · 1/(1 − s).
+    let rel = 0.5 * sigma / line.max(sigma);
+    (value, 10.0 / core::f32::consts::LN_10 * rel / (1.0 - share))
+}
+
+/// How far the family's second and third lines fall below its first in the squared
+/// envelope spectrum: the first lobe's power over the mean of the next two, dB
+/// (each at least its own noise, see `lobe_power`; 0 without a first line).
+fn harmonic_fall_db(ses: &[f32], df: f32, f0: f32, bg: f32) -> f32 {
+    let power = |h: f32| {
+        let (line, sigma) = lobe_power(ses, df, h * f0, bg);
+        line.max(sigma)
+    };
+    let first = power(1.0);
+    if first <= 0.0 {
+        return 0.0;
+    }
+    let next = 0.5 * (power(2.0) + power(3.0));
+    if next <= 0.0 {
+        return 0.0;
+    }
+    10.0 * math::log10f(first / next)
+}
+
+/// A line's power in the squared envelope spectrum: the five bins about the highest
+/// within its tolerance of `f`, less the background's mean there (`bg` is the
+/// median), and that background's own scatter over them: `(line, sigma)`.
+fn lobe_power(ses: &[f32], df: f32, f: f32, bg: f32) -> (f32, f32) {
+    let (lo, bins) = line_bins(ses, df, f);
     let peak = bins
         .iter()
         .enumerate()
@@ -86,17 +122,7 @@ fn severity_db(ses: &[f32], df: f32, f0: f32, bg: f32, p0: f32) -> (f32, f32) {
     let lobe_bins = (b + 1).saturating_sub(a).max(1) as f32;
     let lobe: f32 = ses.get(a..=b).unwrap_or_default().iter().sum();
     let line = (lobe - bg_mean * lobe_bins).max(0.0);
-    let sigma = bg_mean * math::sqrtf(lobe_bins);
-    let amplitude = math::sqrtf(2.0 * line.max(sigma));
-    let share = if p0 > 0.0 {
-        (0.5 * amplitude / p0).clamp(1e-6, 0.999)
-    } else {
-        1e-6
-    };
-    let value = 10.0 * math::log10f(share / (1.0 - share));
-    // s ∝ √line: d(dB) = 10/ln10 · (½·σ/line) · 1/(1 − s).
-    let rel = 0.5 * sigma / line.max(sigma);
-    (value, 10.0 / core::f32::consts::LN_10 * rel / (1.0 - share))
+    (line, bg_mean * math::sqrtf(lobe_bins))
 }
 
 /// The bins the background is the median of — up to the highest family's last
@@ -167,6 +193,7 @@ pub fn line_evidence(
             level_db: family_level_db(spectra.es, df, f0, [o1, o2], max_hz, bg_es),
             impact_to_background_db: sev,
             uncertainty_db: unc,
+            harmonic_fall_db: harmonic_fall_db(spectra.ses, df, f0, bg_ses),
         };
     }
     lines

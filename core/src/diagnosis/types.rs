@@ -159,6 +159,10 @@ pub struct LineEvidence {
     pub impact_to_background_db: f32,
     /// Its standard uncertainty from the SES scatter, dB.
     pub uncertainty_db: f32,
+    /// How far the second and third lines' mean power falls below the first's in
+    /// the SES, dB (positive: they are weaker); grows with the defect's width (see
+    /// the module docs of `crate::diagnosis`).
+    pub harmonic_fall_db: f32,
 }
 
 impl LineEvidence {
@@ -167,5 +171,6 @@ impl LineEvidence {
         level_db: 0.0,
         impact_to_background_db: 0.0,
         uncertainty_db: 0.0,
+        harmonic_fall_db: 0.0,
     };
 }
