@@ -773,6 +773,9 @@ struct RecordSeverity {
     impact_db: f32,
     fall_db: f32,
     width: Width,
+    /// The width the fall bounds (`Evidence::fall_width`), the median over the
+    /// windows that read one, where at least half do.
+    fall_width: Option<Width>,
 }
 
 impl RecordSeverity {
@@ -797,12 +800,21 @@ impl RecordSeverity {
             v.get(v.len() / 2).copied()
         };
         let widths: Vec<Width> = windows.iter().map(|e| e.width(family)).collect();
+        let mut bounds: Vec<Width> = windows
+            .iter()
+            .filter_map(|e| e.fall_width(family))
+            .collect();
+        bounds.sort_by(|a, b| a.degrees.total_cmp(&b.degrees));
+        let fall_width = (2 * bounds.len() >= windows.len())
+            .then(|| bounds.get(bounds.len() / 2).copied())
+            .flatten();
         Some(Self {
             size,
             unit,
             impact_db: median(&|e| e.line(family).impact_to_background_db)?,
             fall_db: median(&|e| e.line(family).harmonic_fall_db)?,
             width: median_width(&widths)?,
+            fall_width,
         })
     }
 }
@@ -827,8 +839,14 @@ fn severity_section(cases: &[Case], scored: &[Scored]) -> String {
          Decided before it was read here: the lines (second and third over the first), \
          the median over windows and the sign; the idea came from seeing the \
          impact-to-background ratio fall with size on HIT-SM.\n\n\
-         | group | sizes | impact/background, dB | ρ | harmonic fall, dB | ρ | width, ° | ρ |\n\
-         |---|---|---|---:|---|---:|---|---:|\n",
+         The width the fall reads (`Evidence::fall_width`: the rectangular dwell that \
+         alone would fall as fast, an estimate biased high by the ring-down and slip and \
+         low where a spall's entry is much weaker than its exit; `—` where the second \
+         and third lines are not both clear of their noise on half the windows, or the \
+         fall is beyond a dwell's 12.55 dB) is checked against the stated size where \
+         that is in degrees of the race.\n\n\
+         | group | sizes | impact/background, dB | ρ | harmonic fall, dB | ρ | width, ° | ρ | width the fall reads, ° |\n\
+         |---|---|---|---:|---|---:|---|---:|---|\n",
     );
     let mut groups: BTreeMap<&str, Vec<RecordSeverity>> = BTreeMap::new();
     for (c, sc) in cases.iter().zip(scored) {
@@ -840,6 +858,8 @@ fn severity_section(cases: &[Case], scored: &[Scored]) -> String {
     let mut rhos_f: BTreeMap<String, Vec<f32>> = BTreeMap::new();
     let join = |v: Vec<String>| v.join(", ");
     let fmt_rho = |r: Option<f32>| r.map_or("—".into(), |r| format!("{r:.2}"));
+    // The width the fall reads over the stated size, per record stated in degrees.
+    let mut read_widths: Vec<f32> = Vec::new();
     for (g, mut v) in groups {
         v.sort_by(|a, b| a.size.total_cmp(&b.size));
         let sizes: Vec<f32> = v.iter().map(|x| x.size).collect();
@@ -865,15 +885,28 @@ fn severity_section(cases: &[Case], scored: &[Scored]) -> String {
         });
         let _ = writeln!(
             s,
-            "| {g} | {} | {} | {} | {} | {} | {} | {} |",
+            "| {g} | {} | {} | {} | {} | {} | {} | {} | {} |",
             join(v.iter().map(|x| format!("{}{}", x.size, x.unit)).collect()),
             join(sev.iter().map(|x| format!("{x:.1}")).collect()),
             fmt_rho(rho),
             join(fall.iter().map(|x| format!("{x:.1}")).collect()),
             fmt_rho(rho_f),
             join(widths.collect()),
-            fmt_rho(rho_w)
+            fmt_rho(rho_w),
+            join(
+                v.iter()
+                    .map(|x| x.fall_width.map_or("—".into(), |w| format!(
+                        "{:.1} ± {:.1}",
+                        w.degrees, w.uncertainty_deg
+                    )))
+                    .collect()
+            )
         );
+        for x in v.iter().filter(|x| x.unit == "deg") {
+            if let Some(w) = x.fall_width {
+                read_widths.push(w.degrees / x.size);
+            }
+        }
     }
     let mean = |r: &[f32]| r.iter().sum::<f32>() / r.len().max(1) as f32;
     let falls: Vec<String> = rhos_f
@@ -883,7 +916,9 @@ fn severity_section(cases: &[Case], scored: &[Scored]) -> String {
     let _ = writeln!(
         s,
         "\nMean ρ: impact/background {:.2} over {} groups; harmonic fall {}; width {} \
-         over {} groups where every size resolved a width.",
+         over {} groups where every size resolved a width. The width the fall reads, \
+         over the stated size, on the {} records stated in degrees that read one: {} \
+         below 1, {} from 1 to 2, {} over 2 (range {:.2}–{:.2}).",
         mean(&rhos),
         rhos.len(),
         falls.join(", "),
@@ -892,7 +927,19 @@ fn severity_section(cases: &[Case], scored: &[Scored]) -> String {
         } else {
             format!("{:.2}", mean(&rhos_w))
         },
-        rhos_w.len()
+        rhos_w.len(),
+        read_widths.len(),
+        read_widths.iter().filter(|&&r| r < 1.0).count(),
+        read_widths
+            .iter()
+            .filter(|&&r| (1.0..=2.0).contains(&r))
+            .count(),
+        read_widths.iter().filter(|&&r| r > 2.0).count(),
+        read_widths.iter().copied().fold(f32::INFINITY, f32::min),
+        read_widths
+            .iter()
+            .copied()
+            .fold(f32::NEG_INFINITY, f32::max),
     );
     s
 }

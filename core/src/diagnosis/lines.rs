@@ -85,21 +85,26 @@ fn severity_db(ses: &[f32], df: f32, f0: f32, bg: f32, p0: f32) -> (f32, f32) {
 
 /// How far the family's second and third lines fall below its first in the squared
 /// envelope spectrum: the first lobe's power over the mean of the next two, dB
-/// (each at least its own noise, see `lobe_power`; 0 without a first line).
-fn harmonic_fall_db(ses: &[f32], df: f32, f0: f32, bg: f32) -> f32 {
-    let power = |h: f32| {
-        let (line, sigma) = lobe_power(ses, df, h * f0, bg);
-        line.max(sigma)
-    };
-    let first = power(1.0);
-    if first <= 0.0 {
-        return 0.0;
+/// (each at least its own noise, see `lobe_power`; 0 without a first line), its
+/// standard uncertainty from the lobes' noise, dB, and whether the second and third
+/// lines both stand above their noise (where one does not, it reads at the noise and
+/// the fall is read short).
+fn harmonic_fall(ses: &[f32], df: f32, f0: f32, bg: f32) -> (f32, f32, bool) {
+    let lobes = [1.0f32, 2.0, 3.0].map(|h| lobe_power(ses, df, h * f0, bg));
+    let [(p1, s1), (p2, s2), (p3, s3)] = lobes.map(|(line, sigma)| (line.max(sigma), sigma));
+    let next = 0.5 * (p2 + p3);
+    if p1 <= 0.0 || next <= 0.0 {
+        return (0.0, 0.0, false);
     }
-    let next = 0.5 * (power(2.0) + power(3.0));
-    if next <= 0.0 {
-        return 0.0;
-    }
-    10.0 * math::log10f(first / next)
+    // Relative errors of the first lobe and of the mean of the next two, in quadrature.
+    let rel_next = 0.5 * math::sqrtf(s2 * s2 + s3 * s3) / next;
+    let rel = math::sqrtf((s1 / p1) * (s1 / p1) + rel_next * rel_next);
+    let above = lobes[1..].iter().all(|&(line, sigma)| line > sigma);
+    (
+        10.0 * math::log10f(p1 / next),
+        10.0 / core::f32::consts::LN_10 * rel,
+        above,
+    )
 }
 
 /// A line's power in the squared envelope spectrum: the five bins about the highest
@@ -189,11 +194,14 @@ pub fn line_evidence(
             continue;
         };
         let (sev, unc) = severity_db(spectra.ses, df, f0, bg_ses, spectra.p0);
+        let (fall, fall_unc, clear) = harmonic_fall(spectra.ses, df, f0, bg_ses);
         *line = LineEvidence {
             level_db: family_level_db(spectra.es, df, f0, [o1, o2], max_hz, bg_es),
             impact_to_background_db: sev,
             uncertainty_db: unc,
-            harmonic_fall_db: harmonic_fall_db(spectra.ses, df, f0, bg_ses),
+            harmonic_fall_db: fall,
+            fall_uncertainty_db: fall_unc,
+            fall_lines_clear: clear,
         };
     }
     lines

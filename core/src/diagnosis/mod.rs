@@ -95,22 +95,30 @@
 //! rate the elements pass over the damaged race), and a race defect's rate is
 //! `f_d = Z·f_rel` (`Z` elements, `= BPFO + BPFI` in orders), so a rectangular dwell
 //! scales the `h`-th line's power by `sinc²(h·x)` with `x = π·f_d·τ = π·Z·w/360°`;
-//! the entry-and-exit pair of events falls faster still (`cos²`). The fall reads no
+//! an entry and an exit event of equal strength fall faster still (`cos²`), an exit
+//! after a much weaker entry hardly at all (the SES squares the events' strengths).
+//! The fall reads no
 //! gain and no impact strength, and it resolves a width only where `x` reaches about
 //! 0.2 (a 0.3 dB fall), i.e. `w ≳ 23°/Z`: 2.5° on a 9-element bearing, so HIT-SM's
 //! 5° and 8° spalls (2° at the edge) but none of CWRU's 0.007–0.021 in (0.4–2° of a
 //! 6205's races). Everything
 //! else that shapes the pulse — the ring-down, the band's width, the elements' slip
-//! jitter — only adds to the fall, so a width read from it assuming a rectangular
-//! dwell is an upper bound, as long as the lines stand above their background
-//! (a harmonic in the noise reads at the noise, which hides fall). Not a threshold:
-//! the figure is reported (`docs/evaluation-generalization.md`'s severity table), the
-//! type decision does not read it.
+//! jitter — only adds to the fall. So the width a rectangular dwell would need to
+//! fall as fast ([`Evidence::fall_width`], `diagnosis::fall`) is an estimate biased
+//! both ways: high by those causes (most on the narrowest spalls), low where the
+//! spall's entry is a much weaker event than its exit. It needs the lines above their
+//! background (a harmonic in the noise reads at the noise, which hides fall). On
+//! HIT-SM, 16 of its 18 spalls of 2°, 5° and 8° read a width, 1.14–3.58 times the
+//! stated one, none below it; CWRU's (0.4–2°, under what the fall resolves) read
+//! 7–12°, what the ring-down alone makes. Not a threshold: the figures are reported
+//! (`docs/evaluation-generalization.md`'s severity table), the type decision does not
+//! read them.
 //!
 //! Thresholds ([`Thresholds::DEFAULT`]) are chosen on the development records only;
 //! their docs say which and what they measured.
 
 mod bands;
+mod fall;
 mod lines;
 mod types;
 mod width;
@@ -151,6 +159,8 @@ pub struct Evidence {
     pub crossing_rates_hz: [f32; 3],
     /// One sample, s: the delay's resolution.
     pub delay_resolution_s: f32,
+    /// Per family, its rate (the first line's frequency), Hz.
+    pub defect_rates_hz: [f32; 3],
 }
 
 impl Evidence {
@@ -164,6 +174,41 @@ impl Evidence {
             uncertainty_deg: 360.0 * self.delay_resolution_s * rate,
             upper_bound,
         }
+    }
+
+    /// Family `d`'s width read from its harmonic fall (`diagnosis::fall`): the width a
+    /// rectangular dwell would need to fall as fast (an estimate, not a bound: see the
+    /// module docs for its biases); `None` where its second and third lines do not
+    /// both stand above their noise, or the fall is beyond what a dwell gives
+    /// (12.55 dB). The uncertainty is the width's change over the fall's own
+    /// uncertainty (half of it from − to +).
+    pub fn fall_width(&self, d: Defect) -> Option<Width> {
+        let i = Defect::ALL.iter().position(|&x| x == d)?;
+        let line = self.lines.get(i)?;
+        let (rate, crossing) = (
+            *self.defect_rates_hz.get(i)?,
+            *self.crossing_rates_hz.get(i)?,
+        );
+        if !(line.fall_lines_clear && rate > 0.0 && crossing > 0.0) {
+            return None;
+        }
+        let degrees = |fall: f32| {
+            fall::dwell_x(fall).map(|x| {
+                (360.0 * x * f64::from(crossing) / (core::f64::consts::PI * f64::from(rate))) as f32
+            })
+        };
+        let (f, u) = (line.harmonic_fall_db, line.fall_uncertainty_db);
+        let w = degrees(f)?;
+        let spread = match (degrees(f - u), degrees(f + u)) {
+            (Some(lo), Some(hi)) => 0.5 * (hi - lo),
+            (Some(lo), None) => w - lo,
+            _ => 0.0,
+        };
+        Some(Width {
+            degrees: w,
+            uncertainty_deg: spread,
+            upper_bound: false,
+        })
     }
 
     /// The family with the highest line level and the one after it.
@@ -405,6 +450,7 @@ pub fn window_evidence(
             orders.bsf * shaft_hz,
         ],
         delay_resolution_s: 1.0 / fs_hz,
+        defect_rates_hz: Defect::ALL.map(|d| d.order(orders) * shaft_hz),
     })
 }
 
@@ -727,6 +773,35 @@ mod tests {
         );
     }
 
+    /// The width the fall reads grows with the spall's and is of its size (exit after
+    /// an entry of 0.6 its strength, ringing 0.4 ms: 6.6°, 7.5° and 8.7° for 3.6°,
+    /// 5.0° and 8.0°); lines lost in noise read no width.
+    #[test]
+    fn the_fall_reads_the_spall_width() {
+        let orders = BearingGeometry::CWRU_6205_DE.orders();
+        let mut last = 0.0;
+        for (delay, seed) in [(0.0025f32, 6u64), (0.0035, 7), (0.0056, 8)] {
+            let e = evidence(&spall(delay, 16_384, seed), 10.0);
+            let w = e
+                .fall_width(Defect::Outer)
+                .expect("lines clear of the noise");
+            let truth = 360.0 * delay * orders.ftf * 10.0;
+            assert!(
+                !w.upper_bound && w.degrees >= truth && w.degrees < 2.0 * truth,
+                "{w:?} vs {truth}"
+            );
+            assert!(w.degrees > last && w.uncertainty_deg.is_finite(), "{w:?}");
+            last = w.degrees;
+        }
+        let mut r = Xoshiro128pp::seed_from_u64(9);
+        let noise: Vec<f32> = (0..16_384).map(|_| r.normal() as f32).collect();
+        let e = evidence(&noise, 10.0);
+        assert!(
+            Defect::ALL.iter().all(|&d| e.fall_width(d).is_none()),
+            "{e:?}"
+        );
+    }
+
     /// An outer-race spall at 600 rpm: each element strikes the exit edge `delay`
     /// after a weaker entry event (both ringing at 3 kHz for 0.4 ms), in noise.
     fn spall(delay_s: f32, n: usize, seed: u64) -> Vec<f32> {
@@ -805,6 +880,13 @@ mod tests {
                 let d = decide(&e, &Thresholds::DEFAULT);
                 assert!((0.0..=1.0).contains(&d.confidence), "case {case}: {d:?}");
                 let _ = e.width(Defect::Outer);
+                for d in Defect::ALL {
+                    let line = e.line(d);
+                    assert!(line.harmonic_fall_db.is_finite(), "case {case}: {line:?}");
+                    if let Some(w) = e.fall_width(d) {
+                        assert!(w.degrees.is_finite() && w.degrees >= 0.0, "{case}: {w:?}");
+                    }
+                }
             }
             let _ = segment_len(fs, shaft, DEFAULT_REVOLUTIONS, n);
         }

@@ -163,6 +163,11 @@ pub struct LineEvidence {
     /// the SES, dB (positive: they are weaker); grows with the defect's width (see
     /// the module docs of `crate::diagnosis`).
     pub harmonic_fall_db: f32,
+    /// Its standard uncertainty from the SES scatter, dB.
+    pub fall_uncertainty_db: f32,
+    /// Whether the second and third lines both stand above their noise: where they
+    /// do not, the fall is read short and reads no width.
+    pub fall_lines_clear: bool,
 }
 
 impl LineEvidence {
@@ -172,5 +177,7 @@ impl LineEvidence {
         impact_to_background_db: 0.0,
         uncertainty_db: 0.0,
         harmonic_fall_db: 0.0,
+        fall_uncertainty_db: 0.0,
+        fall_lines_clear: false,
     };
 }
