@@ -773,7 +773,7 @@ struct RecordSeverity {
     impact_db: f32,
     fall_db: f32,
     width: Width,
-    /// The width the fall bounds (`Evidence::fall_width`), the median over the
+    /// The width the fall reads (`Evidence::fall_width`), the median over the
     /// windows that read one, where at least half do.
     fall_width: Option<Width>,
 }
@@ -800,13 +800,13 @@ impl RecordSeverity {
             v.get(v.len() / 2).copied()
         };
         let widths: Vec<Width> = windows.iter().map(|e| e.width(family)).collect();
-        let mut bounds: Vec<Width> = windows
+        let mut read: Vec<Width> = windows
             .iter()
             .filter_map(|e| e.fall_width(family))
             .collect();
-        bounds.sort_by(|a, b| a.degrees.total_cmp(&b.degrees));
-        let fall_width = (2 * bounds.len() >= windows.len())
-            .then(|| bounds.get(bounds.len() / 2).copied())
+        read.sort_by(|a, b| a.degrees.total_cmp(&b.degrees));
+        let fall_width = (2 * read.len() >= windows.len())
+            .then(|| read.get(read.len() / 2).copied())
             .flatten();
         Some(Self {
             size,

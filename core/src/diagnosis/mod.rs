@@ -24,7 +24,7 @@
 //! severity: a₁ = √(2·Σ_lobe(SES − median SES / ln 2)) the first line's amplitude,
 //!           s = (a₁/2)/P0  the impacts' share of the band's power,
 //!           impact_to_background_db = 10·log10(s / (1 − s))
-//!           harmonic_fall_db = 10·log10(½(P₂ + P₃) / P₁), P_h the h-th line's lobe
+//!           harmonic_fall_db = 10·log10(P₁ / ½(P₂ + P₃)), P_h the h-th line's lobe
 //!           power in the SES above its background (at least that background's scatter)
 //! ```
 //!
@@ -97,13 +97,12 @@
 //! scales the `h`-th line's power by `sinc²(h·x)` with `x = π·f_d·τ = π·Z·w/360°`;
 //! an entry and an exit event of equal strength fall faster still (`cos²`), an exit
 //! after a much weaker entry hardly at all (the SES squares the events' strengths).
-//! The fall reads no
-//! gain and no impact strength, and it resolves a width only where `x` reaches about
-//! 0.2 (a 0.3 dB fall), i.e. `w ≳ 23°/Z`: 2.5° on a 9-element bearing, so HIT-SM's
-//! 5° and 8° spalls (2° at the edge) but none of CWRU's 0.007–0.021 in (0.4–2° of a
-//! 6205's races). Everything
-//! else that shapes the pulse — the ring-down, the band's width, the elements' slip
-//! jitter — only adds to the fall. So the width a rectangular dwell would need to
+//! The fall reads no gain and no impact strength, and it resolves a width only where
+//! `x` reaches about 0.2 (a 0.3 dB fall), i.e. `w ≳ 23°/Z`: 2.5° on a 9-element
+//! bearing, so HIT-SM's 5° and 8° spalls (2° at the edge) but none of CWRU's
+//! 0.007–0.021 in (0.4–2° of a 6205's races). Everything else that shapes the pulse
+//! — the ring-down, the band's width, the elements' slip jitter — only adds to the
+//! fall. So the width a rectangular dwell would need to
 //! fall as fast ([`Evidence::fall_width`], `diagnosis::fall`) is an estimate biased
 //! both ways: high by those causes (most on the narrowest spalls), low where the
 //! spall's entry is a much weaker event than its exit. It needs the lines above their

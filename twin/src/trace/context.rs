@@ -104,10 +104,16 @@ pub(crate) fn has(model: &TwinModel, kind: EffectKind) -> bool {
     model.effects.iter().any(|(e, _)| e.kind() == kind)
 }
 
+/// Sideband orders of a load zone the residual's tracers read as its own: their lines
+/// stand 10 dB out, which a zone's outer sidebands do not (the told reading, which
+/// reads lines a few dB over their floor, reads further: `told_defect`).
+pub(crate) const ZONE_SIDEBANDS_READ: u32 = 2;
+
 /// Is `f` within `tol` of a line a load zone puts in the envelope spectrum of impacts
-/// at `fd` modulated at `fm`: a sideband `k·fd ± m·fm` (k ≤ 5) or `m·fm` itself (m ≤ 2)?
-pub(crate) fn load_zone_line(f: f64, fd: f64, fm: f64, tol: f64) -> bool {
-    (1..=2).any(|m| {
+/// at `fd` modulated at `fm`: a sideband `k·fd ± m·fm` (k ≤ 5) or `m·fm` itself
+/// (m ≤ `orders`)?
+pub(crate) fn load_zone_line(f: f64, fd: f64, fm: f64, orders: u32, tol: f64) -> bool {
+    (1..=orders).any(|m| {
         let side = f64::from(m) * fm;
         (f - side).abs() < tol
             || (1..=5).any(|k| {

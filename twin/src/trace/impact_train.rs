@@ -2,7 +2,9 @@
 //! (a compound fault, a rub, impacts once or k times per turn, or a source nobody
 //! declared).
 
-use super::context::{impact_modulations, load_zone_line, TraceContext, NAMED_RATE_TOLERANCE};
+use super::context::{
+    impact_modulations, load_zone_line, TraceContext, NAMED_RATE_TOLERANCE, ZONE_SIDEBANDS_READ,
+};
 use super::null::NullTest;
 use crate::residual::{
     on_model_comb, refine_comb_rate, Candidate, Check, Component, Evidence, ResidualAnalysis,
@@ -61,7 +63,9 @@ pub fn second_train(
     // are those effects' evidence, not a second train's — also once the model
     // modulates: a real zone's second harmonic stays in the residual.
     let modulation_line = |f: f64| match &own {
-        Some((fd, fms)) => fms.iter().any(|&fm| load_zone_line(f, *fd, fm, tol(f))),
+        Some((fd, fms)) => fms
+            .iter()
+            .any(|&fm| load_zone_line(f, *fd, fm, ZONE_SIDEBANDS_READ, tol(f))),
         None => false,
     };
     let lines: Vec<&Component> = analysis

@@ -3,7 +3,7 @@
 
 use super::context::{
     evidence, load_zone_line, modulated_at, modulation_rates, TraceContext, MAX_MODULATIONS,
-    NAMED_RATE_TOLERANCE,
+    NAMED_RATE_TOLERANCE, ZONE_SIDEBANDS_READ,
 };
 use crate::residual::Kind;
 use crate::residual::{
@@ -221,7 +221,10 @@ pub(super) fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>, out: &m
             .envelope
             .iter()
             .filter(|c| c.kind == Kind::Line)
-            .filter(|c| load_zone_line(c.f_hz, fd, fm, (2.0 * dfe).max(0.01 * c.f_hz)))
+            .filter(|c| {
+                let tol = (2.0 * dfe).max(0.01 * c.f_hz);
+                load_zone_line(c.f_hz, fd, fm, ZONE_SIDEBANDS_READ, tol)
+            })
             .cloned()
             .collect();
         let kinematic = !modulated_at(model, fm)

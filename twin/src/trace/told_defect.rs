@@ -14,7 +14,7 @@
 //! above them and at least [`TOLD_MIN_DB`] over its floor. The refit still judges it
 //! (its lines must fall by 3 dB and the cost by 1 %).
 
-use super::context::{impact_modulations, TraceContext};
+use super::context::{impact_modulations, load_zone_line, TraceContext};
 use super::impact_train::{near_own_rate, SecondTrain};
 use crate::residual::{band_envelope_spectrum, Component, Domain, Kind};
 use crate::twin::fault_name;
@@ -34,7 +34,7 @@ const SCAN_STEP: f64 = 0.001;
 /// own: Harris's zone spans ±66–90° of the turn (ε 0.3–0.5), under half of it, and a
 /// pulse that narrow has sidebands out to about four orders (its spectrum's first
 /// zero is near 360°/width ≈ 2–3 orders and it rolls off slowly after it). The
-/// residual's tracers read ±2 (`context::load_zone_line`): their lines must stand
+/// residual's tracers read ±2 (`context::ZONE_SIDEBANDS_READ`): their lines must stand
 /// 10 dB out, which the outer ones do not; a told family is read a few dB over its
 /// floor, where they do (on `--seed 7` case 24, a control, an inner race's fourth
 /// lower sideband read as an outer race's rate, 5.7 dB).
@@ -83,7 +83,7 @@ pub(super) fn told_defect(ctx: &TraceContext<'_>) -> Option<SecondTrain> {
         let comb = (1..=10).any(|k| (f - f64::from(k) * own_rate).abs() < tol(f));
         let zone = own_mods
             .iter()
-            .any(|&fm| own_zone_line(f, own_rate, fm, tol(f)));
+            .any(|&fm| load_zone_line(f, own_rate, fm, ZONE_SIDEBANDS, tol(f)));
         let orders = shaft > 0.0 && (f / shaft - (f / shaft).round()).abs() * shaft < tol(f);
         let modelled =
             member_level(&model_spec, df, f, tol(f)).is_some_and(|(_, db)| db >= TOLD_MIN_DB);
@@ -212,19 +212,6 @@ fn read_family(
     best
 }
 
-/// Is `f` within `tol` of a line the first defect's load zone puts in the envelope:
-/// `k·fd ± m·fm` (`k` ≤ 5, `m` ≤ [`ZONE_SIDEBANDS`]) or `m·fm` itself?
-fn own_zone_line(f: f64, fd: f64, fm: f64, tol: f64) -> bool {
-    (1..=ZONE_SIDEBANDS).any(|m| {
-        let side = f64::from(m) * fm;
-        (f - side).abs() < tol
-            || (1..=5).any(|k| {
-                let tooth = f64::from(k) * fd;
-                (f - (tooth + side)).abs() < tol || (f - (tooth - side)).abs() < tol
-            })
-    })
-}
-
 /// The strongest bin within `tol` of `f` over the median of the bins about it:
 /// `(its frequency, level dB)`.
 fn member_level(spec: &[f32], df: f64, f: f64, tol: f64) -> Option<(f64, f32)> {
@@ -267,17 +254,18 @@ mod tests {
     #[test]
     fn a_load_zone_owns_its_sidebands_to_the_fourth_order() {
         let (fd, fm, tol) = (333.4, 33.8, 1.0);
+        let own = |f: f64| load_zone_line(f, fd, fm, ZONE_SIDEBANDS, tol);
         for m in 1..=ZONE_SIDEBANDS {
             let side = f64::from(m) * fm;
             for k in 1..=3 {
                 let tooth = f64::from(k) * fd;
-                assert!(own_zone_line(tooth - side, fd, fm, tol), "{k}·fd − {m}·fm");
-                assert!(own_zone_line(tooth + side, fd, fm, tol), "{k}·fd + {m}·fm");
+                assert!(own(tooth - side), "{k}·fd − {m}·fm");
+                assert!(own(tooth + side), "{k}·fd + {m}·fm");
             }
-            assert!(own_zone_line(side, fd, fm, tol), "{m}·fm");
+            assert!(own(side), "{m}·fm");
         }
-        assert!(!own_zone_line(fd - 5.0 * fm, fd, fm, tol));
-        assert!(!own_zone_line(fd + 0.5 * fm, fd, fm, tol));
+        assert!(!own(fd - 5.0 * fm));
+        assert!(!own(fd + 0.5 * fm));
     }
 
     /// A family's lines read 10 dB over a flat floor wherever the slip puts them
