@@ -732,7 +732,7 @@ fn protocol_section(p: &str, cases: &[Case], scored: &[Scored]) -> String {
         }
         s.push('\n');
     }
-    s.push_str("| record | truth | physics (windows) | confidence | severity, dB | envelope rule | DS-STGAT | WDCNN |\n|---|---|---|---:|---:|---|---|---|\n");
+    s.push_str("| record | truth | physics (windows) | confidence | severity, dB | harmonic fall, dB | envelope rule | DS-STGAT | WDCNN |\n|---|---|---|---:|---:|---:|---|---|---|\n");
     for &i in &idx {
         let c = &cases[i];
         let sc = &scored[i];
@@ -742,7 +742,7 @@ fn protocol_section(p: &str, cases: &[Case], scored: &[Scored]) -> String {
         let total: usize = r.counts.iter().sum();
         let _ = writeln!(
             s,
-            "| {} | {} | {} ({} of {total}) | {:.2} | {:.1} ± {:.1} | {} | {} | {} |",
+            "| {} | {} | {} ({} of {total}) | {:.2} | {:.1} ± {:.1} | {:.1} ± {:.1} | {} | {} | {} |",
             c.record,
             c.truth.name(),
             r.fault.name(),
@@ -750,6 +750,8 @@ fn protocol_section(p: &str, cases: &[Case], scored: &[Scored]) -> String {
             r.confidence,
             r.severity.impact_to_background_db,
             r.severity.uncertainty_db,
+            r.severity.harmonic_fall_db,
+            r.severity.fall_uncertainty_db,
             record_type(sc, 1),
             record_type(sc, 2),
             record_type(sc, 3),
@@ -776,6 +778,9 @@ struct RecordSeverity {
     /// The width the fall reads (`Evidence::fall_width`), the median over the
     /// windows that read one, where at least half do.
     fall_width: Option<Width>,
+    /// The record's harmonic fall as `predict` reports it: of the majority type's
+    /// windows, whatever type that is (`summarize_record`).
+    reported_fall_db: f32,
 }
 
 impl RecordSeverity {
@@ -815,6 +820,7 @@ impl RecordSeverity {
             fall_db: median(&|e| e.line(family).harmonic_fall_db)?,
             width: median_width(&widths)?,
             fall_width,
+            reported_fall_db: summarize_record(&sc.physics)?.severity.harmonic_fall_db,
         })
     }
 }
@@ -856,6 +862,7 @@ fn severity_section(cases: &[Case], scored: &[Scored]) -> String {
     }
     let (mut rhos, mut rhos_w) = (Vec::new(), Vec::new());
     let mut rhos_f: BTreeMap<String, Vec<f32>> = BTreeMap::new();
+    let mut rhos_reported: BTreeMap<String, Vec<f32>> = BTreeMap::new();
     let join = |v: Vec<String>| v.join(", ");
     let fmt_rho = |r: Option<f32>| r.map_or("—".into(), |r| format!("{r:.2}"));
     // The width the fall reads over the stated size, per record stated in degrees.
@@ -876,8 +883,13 @@ fn severity_section(cases: &[Case], scored: &[Scored]) -> String {
         };
         rhos.extend(rho);
         rhos_w.extend(rho_w);
+        let reported: Vec<f32> = v.iter().map(|x| x.reported_fall_db).collect();
         let rig = g.split_whitespace().next().unwrap_or_default().to_string();
-        rhos_f.entry(rig).or_default().extend(rho_f);
+        rhos_f.entry(rig.clone()).or_default().extend(rho_f);
+        rhos_reported
+            .entry(rig)
+            .or_default()
+            .extend(spearman(&sizes, &reported));
         let widths = v.iter().map(|x| {
             let w = x.width;
             let mark = if w.upper_bound { "<" } else { "" };
@@ -909,19 +921,23 @@ fn severity_section(cases: &[Case], scored: &[Scored]) -> String {
         }
     }
     let mean = |r: &[f32]| r.iter().sum::<f32>() / r.len().max(1) as f32;
-    let falls: Vec<String> = rhos_f
-        .iter()
-        .map(|(rig, r)| format!("{rig} {:.2} over {}", mean(r), r.len()))
-        .collect();
+    let per_rig = |m: &BTreeMap<String, Vec<f32>>| -> String {
+        m.iter()
+            .map(|(rig, r)| format!("{rig} {:.2} over {}", mean(r), r.len()))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
     let _ = writeln!(
         s,
         "\nMean ρ: impact/background {:.2} over {} groups; harmonic fall {}; width {} \
          over {} groups where every size resolved a width. The width the fall reads, \
          over the stated size, on the {} records stated in degrees that read one: {} \
-         below 1, {} from 1 to 2, {} over 2 (range {:.2}–{:.2}).",
+         below 1, {} from 1 to 2, {} over 2 (range {:.2}–{:.2}). The harmonic fall as \
+         `predict` reports it (`diagnosis.severity.harmonic_fall_db`: of the record's \
+         majority type, whatever that is) ranks the sizes with mean ρ {}.",
         mean(&rhos),
         rhos.len(),
-        falls.join(", "),
+        per_rig(&rhos_f),
         if rhos_w.is_empty() {
             "—".to_string()
         } else {
@@ -940,6 +956,7 @@ fn severity_section(cases: &[Case], scored: &[Scored]) -> String {
             .iter()
             .copied()
             .fold(f32::NEG_INFINITY, f32::max),
+        per_rig(&rhos_reported),
     );
     s
 }

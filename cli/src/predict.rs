@@ -505,11 +505,16 @@ fn record_diagnosis(
             impact_to_background_db: r.severity.impact_to_background_db,
             uncertainty_db: r.severity.uncertainty_db,
             unit: "dB",
-            width: if decided_by == "physics" {
-                r.severity.width.map(WidthReport::of)
-            } else {
-                None
-            },
+            harmonic_fall_db: r.severity.harmonic_fall_db,
+            harmonic_fall_uncertainty_db: r.severity.fall_uncertainty_db,
+            width: (decided_by == "physics")
+                .then_some(r.severity.width)
+                .flatten()
+                .map(WidthReport::of),
+            fall_width: (decided_by == "physics")
+                .then_some(r.severity.fall_width)
+                .flatten()
+                .map(WidthReport::of),
         },
         physics_windows: FaultType::ALL
             .iter()
@@ -620,12 +625,18 @@ fn print_summary(report: &Prediction) {
         },
         match &report.diagnosis {
             Some(d) => format!(
-                "; diagnosis {} (confidence {:.2}, by {}), severity {:.1} ± {:.1} dB impact over background",
+                "; diagnosis {} (confidence {:.2}, by {}), severity {:.1} ± {:.1} dB impact over background, harmonic fall {:.1} ± {:.1} dB{}",
                 d.fault_type,
                 d.confidence,
                 d.decided_by,
                 d.severity.impact_to_background_db,
-                d.severity.uncertainty_db
+                d.severity.uncertainty_db,
+                d.severity.harmonic_fall_db,
+                d.severity.harmonic_fall_uncertainty_db,
+                d.severity.fall_width.map_or(String::new(), |w| format!(
+                    ", width from the fall ≈ {:.1}° (an estimate biased high)",
+                    w.degrees
+                ))
             ),
             None => "; no physical diagnosis (no usable drive-end channel)".to_string(),
         }

@@ -37,9 +37,17 @@ pub enum PhysicsWindow {
         severity_db: f32,
         /// Its standard uncertainty, dB.
         severity_uncertainty_db: f32,
+        /// How far the family's second and third lines fall below its first, dB
+        /// (grows with a spall's width; `pumptwin_core::diagnosis::Severity`).
+        harmonic_fall_db: f32,
+        /// Its standard uncertainty, dB.
+        harmonic_fall_uncertainty_db: f32,
         /// The defect's angular extent from the entry-to-exit delay, for a typed
         /// claim (`null` otherwise).
         width: Option<WidthReport>,
+        /// The width a rectangular dwell would need to fall as fast, for a typed
+        /// claim whose lines read one (`null` otherwise): an estimate biased high.
+        fall_width: Option<WidthReport>,
         /// The most impulsive band, Hz.
         band_hz: [f32; 2],
         /// Its spectral kurtosis (0 for Gaussian noise).
@@ -69,7 +77,10 @@ impl PhysicsWindow {
                 confidence: d.confidence,
                 severity_db: d.severity.impact_to_background_db,
                 severity_uncertainty_db: d.severity.uncertainty_db,
+                harmonic_fall_db: d.severity.harmonic_fall_db,
+                harmonic_fall_uncertainty_db: d.severity.fall_uncertainty_db,
                 width: d.severity.width.map(WidthReport::of),
+                fall_width: d.severity.fall_width.map(WidthReport::of),
                 band_hz: [d.evidence.band_lo_hz, d.evidence.band_hi_hz],
                 spectral_kurtosis: d.evidence.spectral_kurtosis,
                 line_levels_db: d.evidence.lines.map(|l| l.level_db),
@@ -111,8 +122,19 @@ pub struct SeverityReport {
     pub uncertainty_db: f32,
     /// `dB`.
     pub unit: &'static str,
-    /// The defect's angular extent (typed claims by the physics only).
+    /// How far the family's second and third lines fall below its first, dB: grows
+    /// with a spall's width where the fall resolves it (about `23°/Z` of the race and
+    /// up); ranks the sizes of one machine's defects, reads no gain.
+    pub harmonic_fall_db: f32,
+    /// Its standard uncertainty, dB.
+    pub harmonic_fall_uncertainty_db: f32,
+    /// The defect's angular extent from the entry-to-exit delay (typed claims by the
+    /// physics only).
     pub width: Option<WidthReport>,
+    /// The width a rectangular dwell would need to fall as fast (typed claims by the
+    /// physics only, where half the windows read one): an estimate biased high by the
+    /// ring-down and slip.
+    pub fall_width: Option<WidthReport>,
 }
 
 /// A defect's angular extent.
@@ -122,7 +144,8 @@ pub struct WidthReport {
     pub degrees: f32,
     /// Standard uncertainty, degrees.
     pub uncertainty_deg: f32,
-    /// The entry-to-exit delay was not resolved: an upper bound.
+    /// The entry-to-exit delay was not resolved: an upper bound (always false for a
+    /// width read from the fall).
     pub upper_bound: bool,
 }
 

@@ -4,11 +4,12 @@
 //!
 //! ```text
 //! tests/data/cwru105_1s.csv: 10 windows at 12000 Hz
-//!    from      to  physics             conf.  severity        width
-//!  0.00 s  0.94 s  inner_race           0.98  1.1 dB          < 4.9°
+//!    from      to  physics             conf.  severity        fall      width
+//!  0.00 s  0.94 s  inner_race           0.98  1.1 dB          7.4 dB    < 4.9°
 //! network: IR007 (10 of 10 windows)
 //! diagnosis: inner_race, confidence 0.98 (decided by the physics), severity 1.1 ± 0.0 dB
-//! impact over background, width < 4.9 ± 0.5°
+//! impact over background, harmonic fall 7.4 ± 0.0 dB, width < 4.9 ± 0.5°, width from
+//! the fall ≈ 12.0° (an estimate biased high)
 //! ```
 
 use std::fmt::Write as _;
@@ -18,7 +19,7 @@ use crate::predict_report::{PhysicsWindow, Prediction};
 /// The table and the conclusion, each line ending in a newline.
 pub fn table(r: &Prediction) -> String {
     let mut s = format!(
-        "{}: {} windows at {} Hz\n{:>7} {:>7}  {:<19} {:>5}  {:<15} {:<10}\n",
+        "{}: {} windows at {} Hz\n{:>7} {:>7}  {:<19} {:>5}  {:<15} {:<9} {:<10}\n",
         r.input,
         r.windows.len(),
         r.fs_hz_model,
@@ -27,6 +28,7 @@ pub fn table(r: &Prediction) -> String {
         "physics",
         "conf.",
         "severity",
+        "fall",
         "width"
     );
     let window_s = pumptwin_core::layout::WINDOW as f64 / f64::from(r.fs_hz_model);
@@ -46,18 +48,25 @@ pub fn table(r: &Prediction) -> String {
             PhysicsWindow::Diagnosed { severity_db, .. } => Some(*severity_db),
             PhysicsWindow::Failed { .. } => None,
         }));
+        let fall = mean(seg.iter().filter_map(|w| match &w.physics {
+            PhysicsWindow::Diagnosed {
+                harmonic_fall_db, ..
+            } => Some(*harmonic_fall_db),
+            PhysicsWindow::Failed { .. } => None,
+        }));
         let width = seg.iter().rev().find_map(|w| match &w.physics {
             PhysicsWindow::Diagnosed { width: Some(w), .. } => Some(*w),
             _ => None,
         });
         let _ = writeln!(
             s,
-            "{:>5.2} s {:>5.2} s  {:<19} {:>5}  {:<15} {:<10}",
+            "{:>5.2} s {:>5.2} s  {:<19} {:>5}  {:<15} {:<9} {:<10}",
             seg[0].start_s,
             seg[seg.len() - 1].start_s + window_s,
             kind,
             conf.map_or("—".into(), |c| format!("{c:.2}")),
             sev.map_or("—".into(), |v| format!("{v:.1} dB")),
+            fall.map_or("—".into(), |v| format!("{v:.1} dB")),
             width.map_or("—".into(), |w| format!(
                 "{}{:.1}°",
                 if w.upper_bound { "< " } else { "" },
@@ -77,17 +86,23 @@ pub fn table(r: &Prediction) -> String {
         Some(d) => {
             let _ = writeln!(
                 s,
-                "diagnosis: {}, confidence {:.2} (decided by the {}), severity {:.1} ± {:.1} dB impact over background{}",
+                "diagnosis: {}, confidence {:.2} (decided by the {}), severity {:.1} ± {:.1} dB impact over background, harmonic fall {:.1} ± {:.1} dB{}{}",
                 d.fault_type,
                 d.confidence,
                 d.decided_by,
                 d.severity.impact_to_background_db,
                 d.severity.uncertainty_db,
+                d.severity.harmonic_fall_db,
+                d.severity.harmonic_fall_uncertainty_db,
                 d.severity.width.map_or(String::new(), |w| format!(
                     ", width {}{:.1} ± {:.1}°",
                     if w.upper_bound { "< " } else { "" },
                     w.degrees,
                     w.uncertainty_deg
+                )),
+                d.severity.fall_width.map_or(String::new(), |w| format!(
+                    ", width from the fall ≈ {:.1}° (an estimate biased high)",
+                    w.degrees
                 ))
             );
         }
@@ -128,7 +143,10 @@ mod tests {
                 confidence: 0.9,
                 severity_db: 2.0,
                 severity_uncertainty_db: 0.1,
+                harmonic_fall_db: 4.5,
+                harmonic_fall_uncertainty_db: 0.3,
                 width: None,
+                fall_width: None,
                 band_hz: [2_000.0, 3_200.0],
                 spectral_kurtosis: 3.0,
                 line_levels_db: [5.0, 20.0, 4.0],
@@ -174,7 +192,10 @@ mod tests {
             rows[2].contains("normal") && rows[2].contains("0.90"),
             "{t}"
         );
-        assert!(rows[3].contains("inner_race"), "{t}");
+        assert!(
+            rows[3].contains("inner_race") && rows[3].contains("4.5 dB"),
+            "{t}"
+        );
         assert!(rows[4].contains("not diagnosed"), "{t}");
         assert!(rows[6].starts_with("diagnosis: none"), "{t}");
     }

@@ -9,9 +9,10 @@
 //!     start of a record) → evidence → decision (type, confidence, severity)
 //!   → record: the majority type over the windows (ties: the first in FaultType::ALL
 //!     order), its share of the windows, the mean confidence of the windows that made
-//!     it, and the severity as the median over those windows with the windows'
-//!     scatter (half the inter-quartile range / √windows) or each window's own
-//!     uncertainty / √windows, the larger
+//!     it, and each severity figure (impact over background, harmonic fall, the
+//!     widths) as the median over those windows with the windows' scatter (half the
+//!     inter-quartile range / √windows) or each window's own uncertainty / √windows,
+//!     the larger; a width where at least half those windows read one
 //! ```
 //!
 //! Why a stretch longer than the window: a window of 2 048 samples at 12 kHz resolves
@@ -118,49 +119,64 @@ pub fn summarize_record(windows: &[WindowDiagnosis]) -> Option<RecordDiagnosis> 
         .collect();
     let n = chosen.len() as f32;
     let confidence = chosen.iter().map(|d| d.confidence).sum::<f32>() / n;
-    let mut values: Vec<f32> = chosen
-        .iter()
-        .map(|d| d.severity.impact_to_background_db)
-        .collect();
-    values.sort_by(f32::total_cmp);
-    let q = |p: f32| values[((values.len() - 1) as f32 * p).round() as usize];
-    let mut own: Vec<f32> = chosen.iter().map(|d| d.severity.uncertainty_db).collect();
-    own.sort_by(f32::total_cmp);
-    let scatter = 0.5 * (q(0.75) - q(0.25)) / n.sqrt();
-    let own_median = own[own.len() / 2] / n.sqrt();
+    let (impact, impact_unc) = median_and_uncertainty(
+        chosen.iter().map(|d| d.severity.impact_to_background_db),
+        chosen.iter().map(|d| d.severity.uncertainty_db),
+    );
+    let (fall, fall_unc) = median_and_uncertainty(
+        chosen.iter().map(|d| d.severity.harmonic_fall_db),
+        chosen.iter().map(|d| d.severity.fall_uncertainty_db),
+    );
     Some(RecordDiagnosis {
         fault,
         counts,
         failed,
         confidence,
         severity: Severity {
-            impact_to_background_db: q(0.5),
-            uncertainty_db: scatter.max(own_median),
+            impact_to_background_db: impact,
+            uncertainty_db: impact_unc,
+            harmonic_fall_db: fall,
+            fall_uncertainty_db: fall_unc,
             width: record_width(&chosen),
+            fall_width: record_fall_width(&chosen),
         },
     })
 }
 
-/// The record's width from its windows': the median of the resolved widths when at
-/// least half the windows resolved one (uncertainty: half the inter-quartile range
-/// over √windows, at least one sample's worth), else the median upper bound.
+/// The median of the windows' `values` and its uncertainty: their scatter (half the
+/// inter-quartile range over √windows) or the median of the windows' `own`
+/// uncertainties over √windows, the larger; not-a-number for no window.
+fn median_and_uncertainty(
+    values: impl Iterator<Item = f32>,
+    own: impl Iterator<Item = f32>,
+) -> (f32, f32) {
+    let (mut values, mut own): (Vec<f32>, Vec<f32>) = (values.collect(), own.collect());
+    if values.is_empty() || own.is_empty() {
+        return (f32::NAN, f32::NAN);
+    }
+    values.sort_by(f32::total_cmp);
+    own.sort_by(f32::total_cmp);
+    let q = |p: f32| values[((values.len() - 1) as f32 * p).round() as usize];
+    let root_n = (values.len() as f32).sqrt();
+    let scatter = 0.5 * (q(0.75) - q(0.25)) / root_n;
+    (q(0.5), scatter.max(own[own.len() / 2] / root_n))
+}
+
+/// The record's width from its windows' delays: the median of the resolved widths
+/// when at least half the windows resolved one (uncertainty: half the inter-quartile
+/// range over √windows, at least one sample's worth), else the median upper bound.
 fn record_width(chosen: &[&Diagnosis]) -> Option<Width> {
     let widths: Vec<Width> = chosen.iter().filter_map(|d| d.severity.width).collect();
     if widths.is_empty() {
         return None;
     }
-    let mut found: Vec<f32> = widths
-        .iter()
-        .filter(|w| !w.upper_bound)
-        .map(|w| w.degrees)
-        .collect();
+    let found: Vec<&Width> = widths.iter().filter(|w| !w.upper_bound).collect();
     let resolution = widths[0].uncertainty_deg;
     if 2 * found.len() >= widths.len() {
-        found.sort_by(f32::total_cmp);
-        let q = |p: f32| found[((found.len() - 1) as f32 * p).round() as usize];
-        let spread = 0.5 * (q(0.75) - q(0.25)) / (found.len() as f32).sqrt();
+        let (degrees, spread) =
+            median_and_uncertainty(found.iter().map(|w| w.degrees), found.iter().map(|_| 0.0));
         return Some(Width {
-            degrees: q(0.5),
+            degrees,
             uncertainty_deg: spread.max(resolution),
             upper_bound: false,
         });
@@ -171,6 +187,29 @@ fn record_width(chosen: &[&Diagnosis]) -> Option<Width> {
         degrees: bounds[bounds.len() / 2],
         uncertainty_deg: resolution,
         upper_bound: true,
+    })
+}
+
+/// The record's width from its windows' harmonic falls: the median of the widths
+/// read, with [`median_and_uncertainty`]'s uncertainty, when at least half the
+/// windows read one; else `None` (the lines were in the noise, or fell beyond what a
+/// dwell gives, on most windows).
+fn record_fall_width(chosen: &[&Diagnosis]) -> Option<Width> {
+    let read: Vec<Width> = chosen
+        .iter()
+        .filter_map(|d| d.severity.fall_width)
+        .collect();
+    if read.is_empty() || 2 * read.len() < chosen.len() {
+        return None;
+    }
+    let (degrees, uncertainty_deg) = median_and_uncertainty(
+        read.iter().map(|w| w.degrees),
+        read.iter().map(|w| w.uncertainty_deg),
+    );
+    Some(Width {
+        degrees,
+        uncertainty_deg,
+        upper_bound: false,
     })
 }
 
@@ -222,5 +261,67 @@ mod tests {
         assert_eq!(r.failed, 2);
         assert_eq!(r.counts.iter().sum::<usize>(), 2);
         assert_eq!(summarize_record(&w[2..]), None);
+    }
+
+    /// The record's severity figures are the medians of its majority type's windows,
+    /// robust to one wild window; a fall width only where half those windows read one.
+    #[test]
+    fn the_record_severity_is_the_median_of_its_windows() {
+        let x: Vec<f32> = (0..4096).map(|i| (i as f32 * 0.37).sin()).collect();
+        let rec = Recording {
+            name: "r".into(),
+            fs_hz: 12_000.0,
+            rpm: Some(1797.0),
+            channels: vec![Channel {
+                name: "DE".into(),
+                samples: x,
+            }],
+        };
+        let orders = BearingGeometry::CWRU_6205_DE.orders();
+        let w = diagnose_windows(
+            &rec,
+            "DE",
+            &[0],
+            2048,
+            4096,
+            29.95,
+            &orders,
+            &Thresholds::DEFAULT,
+        )
+        .unwrap();
+        let base = *w[0].as_ref().unwrap();
+        let width = |deg: f32| Width {
+            degrees: deg,
+            uncertainty_deg: 0.1,
+            upper_bound: false,
+        };
+        let window = |fall: f32, read: Option<f32>| -> WindowDiagnosis {
+            let mut d = base;
+            d.fault = FaultType::OuterRace;
+            d.severity.harmonic_fall_db = fall;
+            d.severity.fall_uncertainty_db = 0.2;
+            d.severity.fall_width = read.map(width);
+            Ok(d)
+        };
+        let mut windows = vec![
+            window(1.0, Some(4.0)),
+            window(2.0, Some(5.0)),
+            window(3.0, Some(6.0)),
+            window(4.0, None),
+            window(90.0, None),
+        ];
+        let r = summarize_record(&windows).unwrap();
+        assert_eq!(r.severity.harmonic_fall_db, 3.0);
+        // Scatter (4 − 2)/2/√5 = 0.447 over the windows' own 0.2/√5.
+        assert!((r.severity.fall_uncertainty_db - 1.0 / 5f32.sqrt()).abs() < 1e-6);
+        let fw = r.severity.fall_width.unwrap();
+        assert_eq!(fw.degrees, 5.0);
+        assert!(!fw.upper_bound);
+        windows.push(window(5.0, None));
+        windows.push(window(6.0, None));
+        assert_eq!(
+            summarize_record(&windows).unwrap().severity.fall_width,
+            None
+        );
     }
 }

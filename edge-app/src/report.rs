@@ -24,8 +24,10 @@
 //!                                      the latest on-edge Θ update (eq. 10) and the window
 //!                                      it ran on (an earlier one: it runs after each line)
 //!   "physics": {"window": n, "fault_type", "confidence", "severity_db",
-//!               "severity_uncertainty_db",
+//!               "severity_uncertainty_db", "harmonic_fall_db",
+//!               "harmonic_fall_uncertainty_db",
 //!               "width": {"degrees", "uncertainty_deg", "upper_bound"} | null,
+//!               "fall_width": {"degrees", "uncertainty_deg", "upper_bound"} | null,
 //!               "band_hz", "spectral_kurtosis", "line_levels_db", "cage_line_db",
 //!               "above_cage_db"}
 //!            | {"window", "error"} | null   the latest physical diagnosis of the first
@@ -149,11 +151,10 @@ fn physics_json(window: Option<u64>, p: Option<&PhysicsResult>) -> serde_json::V
             "confidence": d.confidence,
             "severity_db": d.severity.impact_to_background_db,
             "severity_uncertainty_db": d.severity.uncertainty_db,
-            "width": d.severity.width.map(|w| serde_json::json!({
-                "degrees": w.degrees,
-                "uncertainty_deg": w.uncertainty_deg,
-                "upper_bound": w.upper_bound,
-            })),
+            "harmonic_fall_db": d.severity.harmonic_fall_db,
+            "harmonic_fall_uncertainty_db": d.severity.fall_uncertainty_db,
+            "width": d.severity.width.map(width_json),
+            "fall_width": d.severity.fall_width.map(width_json),
             "band_hz": [d.evidence.band_lo_hz, d.evidence.band_hi_hz],
             "spectral_kurtosis": d.evidence.spectral_kurtosis,
             "line_levels_db": d.evidence.lines.map(|l| l.level_db),
@@ -161,6 +162,15 @@ fn physics_json(window: Option<u64>, p: Option<&PhysicsResult>) -> serde_json::V
             "above_cage_db": d.evidence.above_cage_db,
         }),
     }
+}
+
+/// A width as the line writes it.
+fn width_json(w: pumptwin_core::diagnosis::Width) -> serde_json::Value {
+    serde_json::json!({
+        "degrees": w.degrees,
+        "uncertainty_deg": w.uncertainty_deg,
+        "upper_bound": w.upper_bound,
+    })
 }
 
 /// The JSON line (without newline) of `window`, with the diagnosis if there is one.
@@ -245,7 +255,7 @@ pub fn window_json(
 /// probability, the physics' type, confidence and severity (of the window it ran on).
 ///
 /// ```text
-///   12.345 s  #41  ok        IR007 0.97 | physics #40 inner_race 0.99, 1.1 dB, width < 4.9°
+///   12.345 s  #41  ok        IR007 0.97 | physics #40 inner_race 0.99, 1.1 dB, fall 7.4 dB, width < 4.9°
 /// ```
 pub fn window_text(window: &Window, diagnosis: Option<&serde_json::Value>) -> String {
     let status = if window.is_degraded() {
@@ -261,10 +271,11 @@ pub fn window_text(window: &Window, diagnosis: Option<&serde_json::Value>) -> St
     match (window.physics.0, &window.physics.1) {
         (Some(n), Some(Ok(d))) => {
             s.push_str(&format!(
-                " | physics #{n} {} {:.2}, {:.1} dB",
+                " | physics #{n} {} {:.2}, {:.1} dB, fall {:.1} dB",
                 d.fault.name(),
                 d.confidence,
-                d.severity.impact_to_background_db
+                d.severity.impact_to_background_db,
+                d.severity.harmonic_fall_db
             ));
             if let Some(w) = d.severity.width {
                 let mark = if w.upper_bound { "< " } else { "" };

@@ -285,15 +285,29 @@ impl Thresholds {
     };
 }
 
-/// The severity of a claim: impact power against the background, with its unit.
+/// The severity of a claim, each figure with its unit and uncertainty: the impact
+/// power against the background, how fast the defect's lines fall with the harmonic
+/// (what grows with a spall's width where the fall resolves it: module docs) and
+/// the widths read from the entry-to-exit delay and from that fall.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Severity {
     /// Impact power against the band's background power, dB.
     pub impact_to_background_db: f32,
     /// Standard uncertainty, dB.
     pub uncertainty_db: f32,
-    /// The defect's angular extent, for a typed claim.
+    /// How far the family's second and third lines fall below its first, dB: grows
+    /// with the spall's width from about `23°/Z` of its race (`Z` elements) and reads
+    /// no gain; it reads the noise where those lines are not clear of it (then
+    /// [`Severity::fall_width`] is `None`).
+    pub harmonic_fall_db: f32,
+    /// Its standard uncertainty, dB.
+    pub fall_uncertainty_db: f32,
+    /// The defect's angular extent from the entry-to-exit delay, for a typed claim.
     pub width: Option<Width>,
+    /// The width a rectangular dwell would need to fall as fast
+    /// ([`Evidence::fall_width`]), for a typed claim whose lines read one: an
+    /// estimate biased high by the ring-down and slip (module docs).
+    pub fall_width: Option<Width>,
 }
 
 /// A defect's angular extent from its entry-to-exit delay
@@ -518,7 +532,10 @@ pub fn decide(evidence: &Evidence, t: &Thresholds) -> Diagnosis {
         severity: Severity {
             impact_to_background_db: line.impact_to_background_db,
             uncertainty_db: line.uncertainty_db,
+            harmonic_fall_db: line.harmonic_fall_db,
+            fall_uncertainty_db: line.fall_uncertainty_db,
             width: claimed.map(|d| evidence.width(d)),
+            fall_width: claimed.and_then(|d| evidence.fall_width(d)),
         },
         evidence: *evidence,
     }
@@ -791,6 +808,12 @@ mod tests {
             );
             assert!(w.degrees > last && w.uncertainty_deg.is_finite(), "{w:?}");
             last = w.degrees;
+            let d = decide(&e, &Thresholds::DEFAULT);
+            assert_eq!(d.fault, FaultType::OuterRace, "{d:?}");
+            assert_eq!(d.severity.fall_width, Some(w));
+            let line = e.line(Defect::Outer);
+            assert_eq!(d.severity.harmonic_fall_db, line.harmonic_fall_db);
+            assert_eq!(d.severity.fall_uncertainty_db, line.fall_uncertainty_db);
         }
         let mut r = Xoshiro128pp::seed_from_u64(9);
         let noise: Vec<f32> = (0..16_384).map(|_| r.normal() as f32).collect();
