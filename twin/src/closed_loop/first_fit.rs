@@ -24,6 +24,7 @@
 //! for the figures now. The completion once cost a probe (vane tones on CWRU 234 read
 //! as a force): with the housing's reading it no longer does.
 
+use super::hypothesis;
 use super::modal::{self, mode_search_bins, psd_peaks, MIN_BASE_MODE_ZETA, MODE_SPACING};
 use super::setup::Setup;
 use super::types::LoopError;
@@ -51,7 +52,7 @@ pub(super) struct FirstFit {
 
 /// Fit the base model to the record of `s`.
 pub(super) fn first_fit(s: &Setup<'_>) -> Result<FirstFit, LoopError> {
-    let (fault, fault_evidence) = identify_fault(&s.target, &s.op, s.cfg.fault_threshold_db);
+    let (fault, fault_evidence) = fault_hypothesis(s);
     let factor = fault.map(|loc| refine_rate(&s.target_res, s.op.freqs.impact_rate(loc)));
     let mut evaluations = 0;
     let mut best: Option<FitResult> = None;
@@ -678,7 +679,28 @@ fn other_lines(families: &[f32; 3], d: usize, shaft: f32, top_hz: f32) -> Vec<f3
     out
 }
 
-/// Step 1a: which defect, from the measured envelope spectrum.
+/// Step 1a: which defect: the one the core's diagnosis types over the record, else
+/// the loop's own envelope rule's ([`identify_fault`]; see `hypothesis`).
+fn fault_hypothesis(
+    s: &Setup<'_>,
+) -> (
+    Option<DefectLocation>,
+    serde_json::Map<String, serde_json::Value>,
+) {
+    let (own, mut ev) = identify_fault(&s.target, &s.op, s.cfg.fault_threshold_db);
+    let diagnosed = hypothesis::diagnosed_type(&s.x, s.op.fs_hz, &s.op.freqs);
+    if let Some((t, counts)) = diagnosed {
+        ev.insert("diagnosis".into(), serde_json::json!(t.name()));
+        ev.insert("diagnosis_windows".into(), serde_json::json!(counts));
+    }
+    match diagnosed.and_then(|(t, _)| hypothesis::typed_defect(t)) {
+        Some(fault) => (Some(fault), ev),
+        None => (own, ev),
+    }
+}
+
+/// The loop's own envelope rule: a family whose lines stand `threshold` dB over their
+/// local floor in the measured envelope spectrum.
 fn identify_fault(
     target: &Target,
     op: &OperatingPoint,

@@ -12,6 +12,7 @@
 //! | `trial` | one candidate refitted from two starts and judged, and its rivals |
 
 mod first_fit;
+mod hypothesis;
 mod modal;
 mod record;
 mod round;
