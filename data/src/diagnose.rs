@@ -224,6 +224,19 @@ mod tests {
     use crate::recording::Channel;
     use pumptwin_core::bearing::BearingGeometry;
 
+    /// A 12 kHz record of one drive-end channel.
+    fn de_record(samples: Vec<f32>) -> Recording {
+        Recording {
+            name: "r".into(),
+            fs_hz: 12_000.0,
+            rpm: Some(1797.0),
+            channels: vec![Channel {
+                name: "DE".into(),
+                samples,
+            }],
+        }
+    }
+
     #[test]
     fn a_missing_channel_a_short_record_and_a_flat_window_are_not_diagnosed() {
         // 4 096 samples of a chirp, then a flat stretch (a dead sensor).
@@ -236,15 +249,7 @@ mod tests {
                 }
             })
             .collect();
-        let rec = Recording {
-            name: "r".into(),
-            fs_hz: 12_000.0,
-            rpm: Some(1797.0),
-            channels: vec![Channel {
-                name: "DE".into(),
-                samples: x,
-            }],
-        };
+        let rec = de_record(x);
         let orders = BearingGeometry::CWRU_6205_DE.orders();
         let t = Thresholds::DEFAULT;
         let d = |ch: &str, starts: &[usize]| {
@@ -268,15 +273,7 @@ mod tests {
     #[test]
     fn the_record_severity_is_the_median_of_its_windows() {
         let x: Vec<f32> = (0..4096).map(|i| (i as f32 * 0.37).sin()).collect();
-        let rec = Recording {
-            name: "r".into(),
-            fs_hz: 12_000.0,
-            rpm: Some(1797.0),
-            channels: vec![Channel {
-                name: "DE".into(),
-                samples: x,
-            }],
-        };
+        let rec = de_record(x);
         let orders = BearingGeometry::CWRU_6205_DE.orders();
         let w = diagnose_windows(
             &rec,
