@@ -10,20 +10,20 @@
 //! ```text
 //! record → windows of WINDOW samples, each read over the segment_len(16 revolutions)
 //!   samples ending with it (the first ones where the record holds that much)
-//!   → decide(Thresholds::DEFAULT) per window → majority type (ties: the first in
-//!   FaultType::ALL order)
+//!   → pumptwin_data::diagnose: decide(Thresholds::DEFAULT) per window, majority type
+//!   (ties: the first in FaultType::ALL order)
 //! ```
 
 use pumptwin_core::bearing::{DefectFrequencies, DefectLocation, DefectOrders};
-use pumptwin_core::diagnosis::{
-    decide, segment_len, window_evidence, Buffers, FaultType, Thresholds, DEFAULT_REVOLUTIONS,
-};
-use pumptwin_core::fft::Complex32;
+use pumptwin_core::diagnosis::{segment_len, FaultType, Thresholds, DEFAULT_REVOLUTIONS};
 use pumptwin_core::layout::WINDOW;
+use pumptwin_data::diagnose::{diagnose_windows, summarize_record};
+use pumptwin_data::recording::{Channel, Recording};
 
 /// The diagnosis's majority type over the record `x` at `fs_hz`, with the windows per
-/// type in [`FaultType::ALL`] order; `None` where no window could be read (a record
-/// shorter than a segment, a nonsense speed, flat or non-finite samples).
+/// type in [`FaultType::ALL`] order (`pumptwin_data::diagnose`, each window read over
+/// a whole segment); `None` where no window could be read (a record shorter than a
+/// segment, a nonsense speed, flat or non-finite samples).
 pub(super) fn diagnosed_type(
     x: &[f32],
     fs_hz: f32,
@@ -43,22 +43,28 @@ pub(super) fn diagnosed_type(
     if x.len() < len {
         return None;
     }
-    let mut complex = vec![Complex32::ZERO; Buffers::complex_len(len)];
-    let mut real = vec![0.0f32; Buffers::real_len(len)];
-    let mut counts = [0usize; 5];
-    for end in (len..=x.len()).step_by(WINDOW) {
-        let Ok(buf) = Buffers::carve(&mut complex, &mut real, len) else {
-            return None;
-        };
-        if let Ok(e) = window_evidence(&x[end - len..end], fs_hz, shaft, &orders, buf) {
-            let t = decide(&e, &Thresholds::DEFAULT).fault;
-            if let Some(i) = FaultType::ALL.iter().position(|&a| a == t) {
-                counts[i] += 1;
-            }
-        }
-    }
-    let best = (0..5).fold(0, |b, i| if counts[i] > counts[b] { i } else { b });
-    (counts[best] > 0).then_some((FaultType::ALL[best], counts))
+    let rec = Recording {
+        name: String::new(),
+        fs_hz,
+        rpm: None,
+        channels: vec![Channel {
+            name: "x".into(),
+            samples: x.to_vec(),
+        }],
+    };
+    // Windows ending at len, len + WINDOW, …: every one reads a whole segment.
+    let starts: Vec<usize> = (len - WINDOW..=x.len() - WINDOW).step_by(WINDOW).collect();
+    let windows = diagnose_windows(
+        &rec,
+        "x",
+        &starts,
+        WINDOW,
+        len,
+        shaft,
+        &orders,
+        &Thresholds::DEFAULT,
+    )?;
+    summarize_record(&windows).map(|r| (r.fault, r.counts))
 }
 
 /// The defect the diagnosis types, `None` where it types none: its typed claims are
