@@ -25,8 +25,8 @@ use pumptwin_core::features::{envelope_spectrum, harmonic_level_db, EnvelopeBand
 use pumptwin_core::fft::Complex32;
 use pumptwin_core::layout::{HOP, WINDOW};
 use pumptwin_data::diagnose::{
-    diagnose_windows, segment_len, summarize_record, type_index, WindowDiagnosis,
-    DEFAULT_REVOLUTIONS,
+    diagnose_windows, record_fall_width, segment_len, summarize_record, type_index,
+    WindowDiagnosis, DEFAULT_REVOLUTIONS,
 };
 use pumptwin_data::featurize::feature_config;
 use pumptwin_data::recording::Recording;
@@ -775,8 +775,8 @@ struct RecordSeverity {
     impact_db: f32,
     fall_db: f32,
     width: Width,
-    /// The width the fall reads (`Evidence::fall_width`), the median over the
-    /// windows that read one, where at least half do.
+    /// The width the fall reads (`Evidence::fall_width`) over the record
+    /// (`record_fall_width`).
     fall_width: Option<Width>,
     /// The record's harmonic fall as `predict` reports it: of the majority type's
     /// windows, whatever type that is (`summarize_record`).
@@ -805,14 +805,11 @@ impl RecordSeverity {
             v.get(v.len() / 2).copied()
         };
         let widths: Vec<Width> = windows.iter().map(|e| e.width(family)).collect();
-        let mut read: Vec<Width> = windows
+        let read: Vec<Width> = windows
             .iter()
             .filter_map(|e| e.fall_width(family))
             .collect();
-        read.sort_by(|a, b| a.degrees.total_cmp(&b.degrees));
-        let fall_width = (2 * read.len() >= windows.len())
-            .then(|| read.get(read.len() / 2).copied())
-            .flatten();
+        let fall_width = record_fall_width(&read, windows.len());
         Some(Self {
             size,
             unit,
@@ -845,12 +842,13 @@ fn severity_section(cases: &[Case], scored: &[Scored]) -> String {
          Decided before it was read here: the lines (second and third over the first), \
          the median over windows and the sign; the idea came from seeing the \
          impact-to-background ratio fall with size on HIT-SM.\n\n\
-         The width the fall reads (`Evidence::fall_width`: the rectangular dwell that \
-         alone would fall as fast, an estimate biased high by the ring-down and slip and \
-         low where a spall's entry is much weaker than its exit; `—` where the second \
-         and third lines are not both clear of their noise on half the windows, or the \
-         fall is beyond a dwell's 12.55 dB) is checked against the stated size where \
-         that is in degrees of the race.\n\n\
+         The width the fall reads (`Evidence::fall_width`: the rectangular dwell that, \
+         through the band's own pulse (the ring-down read after each impact, \
+         `Evidence::ring_down_s`), would fall as fast; an estimate biased high by slip \
+         and what the pulse's reading leaves out, and low where a spall's entry is much \
+         weaker than its exit; `—` where the second and third lines are not both clear \
+         of their noise on half the windows, or the fall is beyond what a dwell gives) \
+         is checked against the stated size where that is in degrees of the race.\n\n\
          | group | sizes | impact/background, dB | ρ | harmonic fall, dB | ρ | width, ° | ρ | width the fall reads, ° |\n\
          |---|---|---|---:|---|---:|---|---:|---|\n",
     );
@@ -867,6 +865,8 @@ fn severity_section(cases: &[Case], scored: &[Scored]) -> String {
     let fmt_rho = |r: Option<f32>| r.map_or("—".into(), |r| format!("{r:.2}"));
     // The width the fall reads over the stated size, per record stated in degrees.
     let mut read_widths: Vec<f32> = Vec::new();
+    // Per width reported as a bound: whether the stated size is under it.
+    let mut bounds: Vec<bool> = Vec::new();
     for (g, mut v) in groups {
         v.sort_by(|a, b| a.size.total_cmp(&b.size));
         let sizes: Vec<f32> = v.iter().map(|x| x.size).collect();
@@ -908,15 +908,19 @@ fn severity_section(cases: &[Case], scored: &[Scored]) -> String {
             join(
                 v.iter()
                     .map(|x| x.fall_width.map_or("—".into(), |w| format!(
-                        "{:.1} ± {:.1}",
-                        w.degrees, w.uncertainty_deg
+                        "{}{:.1} ± {:.1}",
+                        if w.upper_bound { "<" } else { "" },
+                        w.degrees,
+                        w.uncertainty_deg
                     )))
                     .collect()
             )
         );
         for x in v.iter().filter(|x| x.unit == "deg") {
-            if let Some(w) = x.fall_width {
-                read_widths.push(w.degrees / x.size);
+            match x.fall_width {
+                Some(w) if w.upper_bound => bounds.push(x.size <= w.degrees),
+                Some(w) => read_widths.push(w.degrees / x.size),
+                None => {}
             }
         }
     }
@@ -932,7 +936,9 @@ fn severity_section(cases: &[Case], scored: &[Scored]) -> String {
         "\nMean ρ: impact/background {:.2} over {} groups; harmonic fall {}; width {} \
          over {} groups where every size resolved a width. The width the fall reads, \
          over the stated size, on the {} records stated in degrees that read one: {} \
-         below 1, {} from 1 to 2, {} over 2 (range {:.2}–{:.2}). The harmonic fall as \
+         below 1, {} from 1 to 2, {} over 2 (range {:.2}–{:.2}); on {} more it reads a \
+         width under what the fall resolves, right (the stated size under it) on {}. \
+         The harmonic fall as \
          `predict` reports it (`diagnosis.severity.harmonic_fall_db`: of the record's \
          majority type, whatever that is) ranks the sizes with mean ρ {}.",
         mean(&rhos),
@@ -956,6 +962,8 @@ fn severity_section(cases: &[Case], scored: &[Scored]) -> String {
             .iter()
             .copied()
             .fold(f32::NEG_INFINITY, f32::max),
+        bounds.len(),
+        bounds.iter().filter(|&&b| b).count(),
         per_rig(&rhos_reported),
     );
     s

@@ -45,9 +45,14 @@ pub enum PhysicsWindow {
         /// The defect's angular extent from the entry-to-exit delay, for a typed
         /// claim (`null` otherwise).
         width: Option<WidthReport>,
-        /// The width a rectangular dwell would need to fall as fast, for a typed
-        /// claim whose lines read one (`null` otherwise): an estimate biased high.
+        /// The width a rectangular dwell would need to fall as fast through the
+        /// band's pulse, for a typed claim whose lines read one (`null` otherwise):
+        /// an estimate, or a bound under what the fall resolves.
         fall_width: Option<WidthReport>,
+        /// One impact's pulse in the band: the seconds its squared envelope takes to
+        /// rise from `1/e` of its peak and to fall back to it, `[rise, fall]` (0
+        /// where no impact read one): what the width from the fall takes out.
+        pulse_s: [f32; 2],
         /// The most impulsive band, Hz.
         band_hz: [f32; 2],
         /// Its spectral kurtosis (0 for Gaussian noise).
@@ -81,6 +86,7 @@ impl PhysicsWindow {
                 harmonic_fall_uncertainty_db: d.severity.fall_uncertainty_db,
                 width: d.severity.width.map(WidthReport::of),
                 fall_width: d.severity.fall_width.map(WidthReport::of),
+                pulse_s: d.evidence.ring_down_s,
                 band_hz: [d.evidence.band_lo_hz, d.evidence.band_hi_hz],
                 spectral_kurtosis: d.evidence.spectral_kurtosis,
                 line_levels_db: d.evidence.lines.map(|l| l.level_db),

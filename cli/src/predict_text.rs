@@ -100,10 +100,17 @@ pub fn table(r: &Prediction) -> String {
                     w.degrees,
                     w.uncertainty_deg
                 )),
-                d.severity.fall_width.map_or(String::new(), |w| format!(
-                    ", width from the fall ≈ {:.1}° (an estimate biased high)",
-                    w.degrees
-                ))
+                d.severity.fall_width.map_or(String::new(), |w| if w.upper_bound {
+                    format!(
+                        ", width from the fall < {:.1}° (under what the fall resolves)",
+                        w.degrees
+                    )
+                } else {
+                    format!(
+                        ", width from the fall ≈ {:.1}° (an estimate, biased high)",
+                        w.degrees
+                    )
+                })
             );
         }
         None => s.push_str("diagnosis: none (no usable drive-end channel)\n"),
@@ -147,6 +154,7 @@ mod tests {
                 harmonic_fall_uncertainty_db: 0.3,
                 width: None,
                 fall_width: None,
+                pulse_s: [0.0005, 0.0006],
                 band_hz: [2_000.0, 3_200.0],
                 spectral_kurtosis: 3.0,
                 line_levels_db: [5.0, 20.0, 4.0],

@@ -138,7 +138,13 @@ pub fn summarize_record(windows: &[WindowDiagnosis]) -> Option<RecordDiagnosis> 
             harmonic_fall_db: fall,
             fall_uncertainty_db: fall_unc,
             width: record_width(&chosen),
-            fall_width: record_fall_width(&chosen),
+            fall_width: record_fall_width(
+                &chosen
+                    .iter()
+                    .filter_map(|d| d.severity.fall_width)
+                    .collect::<Vec<_>>(),
+                chosen.len(),
+            ),
         },
     })
 }
@@ -190,26 +196,25 @@ fn record_width(chosen: &[&Diagnosis]) -> Option<Width> {
     })
 }
 
-/// The record's width from its windows' harmonic falls: the median of the widths
-/// read, with [`median_and_uncertainty`]'s uncertainty, when at least half the
-/// windows read one; else `None` (the lines were in the noise, or fell beyond what a
-/// dwell gives, on most windows).
-fn record_fall_width(chosen: &[&Diagnosis]) -> Option<Width> {
-    let read: Vec<Width> = chosen
-        .iter()
-        .filter_map(|d| d.severity.fall_width)
-        .collect();
-    if read.is_empty() || 2 * read.len() < chosen.len() {
+/// A record's width from its windows' harmonic falls, `read` by some of its
+/// `windows`: the median of the widths read, with [`median_and_uncertainty`]'s
+/// uncertainty, when at least half the windows read one; else `None` (the lines
+/// were in the noise, or fell beyond what a dwell gives, on most windows). An upper
+/// bound (a dwell under what the fall resolves) where more than half of those read
+/// are.
+pub fn record_fall_width(read: &[Width], windows: usize) -> Option<Width> {
+    if read.is_empty() || 2 * read.len() < windows {
         return None;
     }
     let (degrees, uncertainty_deg) = median_and_uncertainty(
         read.iter().map(|w| w.degrees),
         read.iter().map(|w| w.uncertainty_deg),
     );
+    let bounds = read.iter().filter(|w| w.upper_bound).count();
     Some(Width {
         degrees,
         uncertainty_deg,
-        upper_bound: false,
+        upper_bound: 2 * bounds > read.len(),
     })
 }
 
@@ -320,5 +325,23 @@ mod tests {
             summarize_record(&windows).unwrap().severity.fall_width,
             None
         );
+    }
+
+    /// A record's fall width is a bound where most windows that read one read a
+    /// bound (a dwell under what the fall resolves), a value otherwise.
+    #[test]
+    fn the_record_fall_width_is_a_bound_where_most_windows_read_one() {
+        let w = |degrees: f32, upper_bound: bool| Width {
+            degrees,
+            uncertainty_deg: 0.0,
+            upper_bound,
+        };
+        let bounds = [w(2.5, true), w(2.5, true), w(6.0, false)];
+        let r = record_fall_width(&bounds, 4).unwrap();
+        assert!(r.upper_bound && r.degrees == 2.5, "{r:?}");
+        let values = [w(2.5, true), w(6.0, false), w(7.0, false)];
+        let r = record_fall_width(&values, 3).unwrap();
+        assert!(!r.upper_bound && r.degrees == 6.0, "{r:?}");
+        assert_eq!(record_fall_width(&values, 7), None);
     }
 }

@@ -28,7 +28,7 @@
 //!               "harmonic_fall_uncertainty_db",
 //!               "width": {"degrees", "uncertainty_deg", "upper_bound"} | null,
 //!               "fall_width": {"degrees", "uncertainty_deg", "upper_bound"} | null,
-//!               "band_hz", "spectral_kurtosis", "line_levels_db", "cage_line_db",
+//!               "pulse_s", "band_hz", "spectral_kurtosis", "line_levels_db", "cage_line_db",
 //!               "above_cage_db"}
 //!            | {"window", "error"} | null   the latest physical diagnosis of the first
 //!                                      channel over the 16 shaft revolutions ending with
@@ -155,6 +155,7 @@ fn physics_json(window: Option<u64>, p: Option<&PhysicsResult>) -> serde_json::V
             "harmonic_fall_uncertainty_db": d.severity.fall_uncertainty_db,
             "width": d.severity.width.map(width_json),
             "fall_width": d.severity.fall_width.map(width_json),
+            "pulse_s": d.evidence.ring_down_s,
             "band_hz": [d.evidence.band_lo_hz, d.evidence.band_hi_hz],
             "spectral_kurtosis": d.evidence.spectral_kurtosis,
             "line_levels_db": d.evidence.lines.map(|l| l.level_db),

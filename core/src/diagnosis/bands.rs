@@ -174,8 +174,9 @@ pub fn band_moments(
 
 /// One band's envelope spectrum (of `|z|`, for the lines) into `es` and squared
 /// envelope spectrum (of `|z|²`, for the severity) into `ses`, both Hann power
-/// spectra of the mean-removed signal; returns the band's power `mean |z|²`.
-/// `scratch`, `env`: the window's length; `es`, `ses`: half of it plus one.
+/// spectra of the mean-removed signal, leaving `|z|²` in `env`; returns the band's
+/// power `mean |z|²`. `scratch`, `env`: the window's length; `es`, `ses`: half of
+/// it plus one.
 pub fn band_envelope_spectra(
     spectrum: &[Complex32],
     fs_hz: f32,
@@ -206,5 +207,117 @@ pub fn band_envelope_spectra(
         *e = (v * v - p0) as f32;
     }
     power_spectrum(env, Window::Hann, scratch, ses)?;
+    for e in env.iter_mut() {
+        *e += p0 as f32;
+    }
     Ok(p0 as f32)
+}
+
+/// The mean of exponential samples under their mean, over their mean:
+/// `(1 − 2/e)/(1 − 1/e)`.
+const NOISE_BELOW_MEAN: f64 = 0.418_023;
+
+/// Most impacts [`ring_down_s`] reads (the strongest are not chosen: the first in
+/// the window, which is any of them).
+const RING_DOWN_IMPACTS: usize = 64;
+
+/// How long one impact's squared envelope takes to rise from `1/e` of its peak to
+/// the peak and to fall back to `1/e` in the band, s: `[rise, fall]`, each the median
+/// over the window's clear impacts (peaks of `|z|²` at least eight times the
+/// background's, each the highest within `gap` samples either side, that rise from
+/// and fall to `1/e` within them), log-interpolated between samples; `[0, 0]` where
+/// no impact reads one. The background is read from the samples under `mean`
+/// (`mean |z|²`): for noise alone (`|z|²` exponential) their mean is
+/// `(1 − 2/e)/(1 − 1/e) = 0.418` of the noise's, and impacts, which raise the mean,
+/// only raise that estimate where their tails fill the gaps. What it reads is one
+/// impact's pulse — the ring-down of what it excites, through the band's own
+/// response, which also sets the rise — that every line of the envelope carries
+/// whatever the defect's width; a spall's entry before its exit lengthens the rise
+/// only where it reaches `1/e` of the exit (module docs of `crate::diagnosis`, "the
+/// band's own fall").
+pub fn ring_down_s(power: &[f32], fs_hz: f32, gap: usize, mean: f32) -> [f32; 2] {
+    let mut found = [[0.0f32; 2]; RING_DOWN_IMPACTS];
+    let mut count = 0usize;
+    let (below, count_below) = power
+        .iter()
+        .filter(|&&v| v < mean)
+        .fold((0.0f64, 0usize), |(s, c), &v| (s + f64::from(v), c + 1));
+    if count_below == 0 {
+        return [0.0; 2];
+    }
+    let background = (below / count_below as f64 / NOISE_BELOW_MEAN) as f32;
+    let threshold = 8.0 * background;
+    let gap = gap.max(2);
+    let mut i = gap;
+    while i + gap < power.len() && count < RING_DOWN_IMPACTS {
+        let p = power.get(i).copied().unwrap_or(0.0);
+        // A NaN sample is never a peak.
+        if p.partial_cmp(&threshold) != Some(core::cmp::Ordering::Greater) {
+            i += 1;
+            continue;
+        }
+        let ahead = power.get(i + 1..=i + gap).unwrap_or_default();
+        if let Some(k) = ahead.iter().position(|&v| v > p) {
+            i += k + 1;
+            continue;
+        }
+        let behind = power.get(i - gap..i).unwrap_or_default();
+        let fall = e_fold(p, ahead.iter().copied());
+        let rise = e_fold(p, behind.iter().rev().copied());
+        if let (Some(f), Some(r), Some(slot)) = (fall, rise, found.get_mut(count)) {
+            *slot = [r / fs_hz, f / fs_hz];
+            count += 1;
+        }
+        i += gap;
+    }
+    let read = found.get_mut(..count).unwrap_or_default();
+    let mut out = [0.0f32; 2];
+    for (side, o) in out.iter_mut().enumerate() {
+        read.sort_unstable_by(|a, b| a[side].total_cmp(&b[side]));
+        *o = read.get(count / 2).map_or(0.0, |v| v[side]);
+    }
+    out
+}
+
+/// Samples (log-interpolated) until `side`, read away from a peak `p`, first falls to
+/// `p/e`; `None` where it never does or rises above `p` first.
+fn e_fold(p: f32, side: impl Iterator<Item = f32>) -> Option<f32> {
+    let target = p / core::f32::consts::E;
+    let mut before = p;
+    for (j, v) in side.enumerate() {
+        if v > p {
+            return None;
+        }
+        if v <= target {
+            let after = v.max(f32::MIN_POSITIVE);
+            let step = crate::math::ln(f64::from(before / after));
+            let part = if step > 0.0 {
+                crate::math::ln(f64::from(before / target)) / step
+            } else {
+                1.0
+            };
+            return Some(j as f32 + part as f32);
+        }
+        before = v;
+    }
+    None
+}
+
+/// The band pulse's power at `2·f` and `3·f` over its power at `f`, for a squared
+/// envelope that rises as `e^{t/τ_r}` to each impact's peak and falls as `e^{-t/τ_f}`
+/// after it (`[τ_r, τ_f]` = [`ring_down_s`]): that pulse's transform is
+/// `(τ_r + τ_f)/((1 − i·2πf·τ_r)(1 + i·2πf·τ_f))`, so
+/// `|G(f)|² ∝ 1/((1 + (2πf·τ_r)²)(1 + (2πf·τ_f)²))` and the result is
+/// `[|G(2f)|²/|G(f)|², |G(3f)|²/|G(f)|²]`; `[1, 1]` where nothing was read.
+pub fn ring_down_transfer(pulse_s: [f32; 2], f: f32) -> [f32; 2] {
+    let l = |h: f32| {
+        pulse_s.iter().fold(1.0f32, |g, &tau| {
+            let w = 2.0 * core::f32::consts::PI * h * f * tau;
+            g / (1.0 + w * w)
+        })
+    };
+    if !(f > 0.0 && f.is_finite() && pulse_s.iter().all(|t| *t >= 0.0 && t.is_finite())) {
+        return [1.0, 1.0];
+    }
+    [l(2.0) / l(1.0), l(3.0) / l(1.0)]
 }

@@ -168,6 +168,11 @@ pub struct LineEvidence {
     /// Whether the second and third lines both stand above their noise: where they
     /// do not, the fall is read short and reads no width.
     pub fall_lines_clear: bool,
+    /// The band's own pulse power at the family's second and third harmonic over
+    /// its first (`ring_down_transfer`): the fall the ring-down and the
+    /// band make whatever the defect's width, which the width read from the fall
+    /// takes out.
+    pub pulse_transfer: [f32; 2],
 }
 
 impl LineEvidence {
@@ -179,5 +184,6 @@ impl LineEvidence {
         harmonic_fall_db: 0.0,
         fall_uncertainty_db: 0.0,
         fall_lines_clear: false,
+        pulse_transfer: [1.0, 1.0],
     };
 }

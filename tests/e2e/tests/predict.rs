@@ -61,8 +61,8 @@ fn predict_fixture_with_int8_and_float_models_and_a_channel_subset() {
         assert!(d["confidence"].as_f64().unwrap() > 0.9, "{d}");
         // A seeded 0.007" hole is far below what the delay resolves: an upper bound.
         assert_eq!(d["severity"]["width"]["upper_bound"], true, "{d}");
-        // Its lines stand clear: a harmonic fall and the width it reads, whose ring-down
-        // bias puts it far above the hole's 0.7° (docs/output.md).
+        // Its lines stand clear: a harmonic fall and the width it reads through the
+        // band's pulse, still far above the hole's 0.7° on this record (docs/output.md).
         let fall = d["severity"]["harmonic_fall_db"].as_f64().unwrap();
         assert!(fall.is_finite() && fall > 0.0, "{d}");
         assert!(
@@ -75,6 +75,11 @@ fn predict_fixture_with_int8_and_float_models_and_a_channel_subset() {
         let p = &r["windows"][3]["physics"];
         assert!(
             p["harmonic_fall_db"].is_number() && p.get("fall_width").is_some(),
+            "{p}"
+        );
+        let pulse = p["pulse_s"].as_array().unwrap();
+        assert!(
+            pulse.len() == 2 && pulse.iter().all(|v| v.as_f64().unwrap() > 0.0),
             "{p}"
         );
         assert_eq!(d["severity"]["unit"], "dB");
