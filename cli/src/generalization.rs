@@ -843,8 +843,8 @@ fn severity_section(cases: &[Case], scored: &[Scored]) -> String {
          the median over windows and the sign; the idea came from seeing the \
          impact-to-background ratio fall with size on HIT-SM.\n\n\
          The width the fall reads (`Evidence::fall_width`: the rectangular dwell that, \
-         through the band's own pulse (the ring-down read after each impact, \
-         `Evidence::ring_down_s`), would fall as fast; an estimate biased high by slip \
+         through the band's own pulse (each impact's rise and ring-down, read at the \
+         impacts: `Evidence::pulse_s`), would fall as fast; an estimate biased high by slip \
          and what the pulse's reading leaves out, and low where a spall's entry is much \
          weaker than its exit; `—` where the second and third lines are not both clear \
          of their noise on half the windows, or the fall is beyond what a dwell gives) \

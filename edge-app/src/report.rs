@@ -155,7 +155,7 @@ fn physics_json(window: Option<u64>, p: Option<&PhysicsResult>) -> serde_json::V
             "harmonic_fall_uncertainty_db": d.severity.fall_uncertainty_db,
             "width": d.severity.width.map(width_json),
             "fall_width": d.severity.fall_width.map(width_json),
-            "pulse_s": d.evidence.ring_down_s,
+            "pulse_s": d.evidence.pulse_s,
             "band_hz": [d.evidence.band_lo_hz, d.evidence.band_hi_hz],
             "spectral_kurtosis": d.evidence.spectral_kurtosis,
             "line_levels_db": d.evidence.lines.map(|l| l.level_db),

@@ -217,9 +217,9 @@ pub fn band_envelope_spectra(
 /// `(1 − 2/e)/(1 − 1/e)`.
 const NOISE_BELOW_MEAN: f64 = 0.418_023;
 
-/// Most impacts [`ring_down_s`] reads (the strongest are not chosen: the first in
+/// Most impacts [`impact_pulse_s`] reads (the strongest are not chosen: the first in
 /// the window, which is any of them).
-const RING_DOWN_IMPACTS: usize = 64;
+const PULSE_IMPACTS: usize = 64;
 
 /// How long one impact's squared envelope takes to rise from `1/e` of its peak to
 /// the peak and to fall back to `1/e` in the band, s: `[rise, fall]`, each the median
@@ -235,8 +235,8 @@ const RING_DOWN_IMPACTS: usize = 64;
 /// whatever the defect's width; a spall's entry before its exit lengthens the rise
 /// only where it reaches `1/e` of the exit (module docs of `crate::diagnosis`, "the
 /// band's own fall").
-pub fn ring_down_s(power: &[f32], fs_hz: f32, gap: usize, mean: f32) -> [f32; 2] {
-    let mut found = [[0.0f32; 2]; RING_DOWN_IMPACTS];
+pub fn impact_pulse_s(power: &[f32], fs_hz: f32, gap: usize, mean: f32) -> [f32; 2] {
+    let mut found = [[0.0f32; 2]; PULSE_IMPACTS];
     let mut count = 0usize;
     let (below, count_below) = power
         .iter()
@@ -249,7 +249,7 @@ pub fn ring_down_s(power: &[f32], fs_hz: f32, gap: usize, mean: f32) -> [f32; 2]
     let threshold = 8.0 * background;
     let gap = gap.max(2);
     let mut i = gap;
-    while i + gap < power.len() && count < RING_DOWN_IMPACTS {
+    while i + gap < power.len() && count < PULSE_IMPACTS {
         let p = power.get(i).copied().unwrap_or(0.0);
         // A NaN sample is never a peak.
         if p.partial_cmp(&threshold) != Some(core::cmp::Ordering::Greater) {
@@ -305,11 +305,11 @@ fn e_fold(p: f32, side: impl Iterator<Item = f32>) -> Option<f32> {
 
 /// The band pulse's power at `2·f` and `3·f` over its power at `f`, for a squared
 /// envelope that rises as `e^{t/τ_r}` to each impact's peak and falls as `e^{-t/τ_f}`
-/// after it (`[τ_r, τ_f]` = [`ring_down_s`]): that pulse's transform is
+/// after it (`[τ_r, τ_f]` = [`impact_pulse_s`]): that pulse's transform is
 /// `(τ_r + τ_f)/((1 − i·2πf·τ_r)(1 + i·2πf·τ_f))`, so
 /// `|G(f)|² ∝ 1/((1 + (2πf·τ_r)²)(1 + (2πf·τ_f)²))` and the result is
 /// `[|G(2f)|²/|G(f)|², |G(3f)|²/|G(f)|²]`; `[1, 1]` where nothing was read.
-pub fn ring_down_transfer(pulse_s: [f32; 2], f: f32) -> [f32; 2] {
+pub fn pulse_transfer_of(pulse_s: [f32; 2], f: f32) -> [f32; 2] {
     let l = |h: f32| {
         pulse_s.iter().fold(1.0f32, |g, &tau| {
             let w = 2.0 * core::f32::consts::PI * h * f * tau;

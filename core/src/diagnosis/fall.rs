@@ -1,7 +1,7 @@
 //! A defect's width read from how fast its lines fall with the harmonic (module docs
 //! of `crate::diagnosis`): an element dwelling `τ` in the spall scales the `h`-th line's
 //! power by `sinc²(h·x)`, `x = π·f_d·τ`, and the band's own pulse — the ring-down of
-//! what the impacts excite and the band's width — by `t_h` (`BandPulse`, `t_1 = 1`),
+//! what the impacts excite and the band's width — by `t_h` (`bands::pulse_transfer_of`, `t_1 = 1`),
 //! so the fall of the second and third lines below the first is
 //!
 //! ```text
@@ -23,11 +23,11 @@ use crate::math;
 /// monotone, and a measured fall beyond the model's there reads no width.
 const X_MAX: f64 = core::f64::consts::FRAC_PI_2;
 
-/// The smallest `x` a width is read at: there the dwell adds 0.3 dB to the fall
-/// (flat pulse), about what the causes the pulse's reading leaves out (slip jitter,
-/// the pulse's shape beyond two exponentials) add by themselves, so a smaller `x`
-/// is reported as a width under the one at `X_RESOLVED`: `23°/Z` of the race for
-/// `Z` elements (module docs of `crate::diagnosis`).
+/// The smallest `x` a width is read at: the resolution the module docs of
+/// `crate::diagnosis` give the fall (there the dwell adds 0.3 dB through a flat
+/// pulse, of the order of what the pulse's reading leaves out: slip jitter, a pulse
+/// that is not two exponentials), so a smaller `x` is reported as a width under the
+/// one at `X_RESOLVED`: `23°/Z` of the race for `Z` elements.
 pub const X_RESOLVED: f64 = 0.2;
 
 /// `sinc²(x)`.

@@ -1,7 +1,7 @@
 //! The defect families' lines in a band's envelope spectrum and the severity from its
 //! squared envelope spectrum.
 
-use super::bands::ring_down_transfer;
+use super::bands::pulse_transfer_of;
 use super::types::{Defect, LineEvidence, HARMONICS, SLIP};
 use crate::bearing::DefectOrders;
 use crate::dsp::median_level;
@@ -22,9 +22,9 @@ pub struct BandSpectra<'a> {
     /// The band's width, Hz: lines above 0.9 of it are not in its envelope.
     pub width_hz: f32,
     /// How long one impact's squared envelope takes to rise from and fall to `1/e`
-    /// of its peak in the band, s ([`super::bands::ring_down_s`]; 0 where none was
+    /// of its peak in the band, s ([`super::bands::impact_pulse_s`]; 0 where none was
     /// read).
-    pub ring_down_s: [f32; 2],
+    pub pulse_s: [f32; 2],
 }
 
 /// Whether a line at `f` (tolerance `tol`) falls on a harmonic of another family:
@@ -207,7 +207,7 @@ pub fn line_evidence(
             harmonic_fall_db: fall,
             fall_uncertainty_db: fall_unc,
             fall_lines_clear: clear,
-            pulse_transfer: ring_down_transfer(spectra.ring_down_s, f0),
+            pulse_transfer: pulse_transfer_of(spectra.pulse_s, f0),
         };
     }
     lines

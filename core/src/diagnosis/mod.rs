@@ -88,7 +88,7 @@
 //! uncertainty comes from the SES's own scatter: each bin of a noise periodogram
 //! scatters by its mean, so the lobe's power is known to `bg/ln 2 · √(lobe bins)`.
 //! An impact that rings longer than `1/(2π f_d)` lowers `|G(f_d)|` and so the estimate
-//! (a bias that the ring-down read for the width, [`Evidence::ring_down_s`], could
+//! (a bias that the pulse read for the width, [`Evidence::pulse_s`], could
 //! correct; not applied to this figure).
 //!
 //! How the lines fall with the harmonic, and why that grows with the defect's width:
@@ -107,9 +107,9 @@
 //! the ring-down of what it excites, through the band's own response, which also
 //! sets its rise — `|G(h·f_d)|²`, which falls with the harmonic whatever the defect's
 //! width. Read at each clear impact as the times its squared envelope takes to rise
-//! from `1/e` of its peak and to fall back to it (`bands::ring_down_s`), it is taken
+//! from `1/e` of its peak and to fall back to it (`bands::impact_pulse_s`), it is taken
 //! as a two-sided exponential, `|G(f)|² ∝ 1/((1 + (2πf·τ_r)²)(1 + (2πf·τ_f)²))`
-//! (`bands::ring_down_transfer`), and the width is the dwell that, through that
+//! (`bands::pulse_transfer_of`), and the width is the dwell that, through that
 //! pulse, falls as fast (`diagnosis::fall`); a dwell under what the fall resolves
 //! (`fall::X_RESOLVED`: 23°/Z of the race) is reported as a width under that. Why
 //! not the band's spectrum: its autocorrelation is the pulse's exactly for one
@@ -187,9 +187,9 @@ pub struct Evidence {
     pub defect_rates_hz: [f32; 3],
     /// How long one impact's squared envelope takes to rise from `1/e` of its peak
     /// and to fall back to it in the band, `[rise, fall]`, s
-    /// (`diagnosis::bands::ring_down_s`; 0 where no impact read one): the pulse whose
+    /// (`diagnosis::bands::impact_pulse_s`; 0 where no impact read one): the pulse whose
     /// own fall the width read from the harmonic fall takes out.
-    pub ring_down_s: [f32; 2],
+    pub pulse_s: [f32; 2],
 }
 
 impl Evidence {
@@ -478,14 +478,14 @@ pub fn window_evidence(
         .iter()
         .fold(0.0f32, |m, d| m.max(d.order(orders) * shaft_hz));
     let gap = (0.5 * fs_hz / fastest) as usize;
-    let ring_down_s = bands::ring_down_s(buf.env, fs_hz, gap, p0);
+    let pulse_s = bands::impact_pulse_s(buf.env, fs_hz, gap, p0);
     let spectra = BandSpectra {
         es: buf.es,
         ses: buf.ses,
         p0,
         df: fs_hz / n as f32,
         width_hz: plan.width_hz,
-        ring_down_s,
+        pulse_s,
     };
     let lines = line_evidence(&spectra, shaft_hz, orders, buf.work);
     let (cage_db, above_cage_db) = cage_line_db(&spectra, shaft_hz, orders, buf.work);
@@ -505,7 +505,7 @@ pub fn window_evidence(
         ],
         delay_resolution_s: 1.0 / fs_hz,
         defect_rates_hz: Defect::ALL.map(|d| d.order(orders) * shaft_hz),
-        ring_down_s,
+        pulse_s,
     })
 }
 
@@ -845,7 +845,7 @@ mod tests {
                     .iter()
                     .map(|v| v * gain)
                     .collect();
-                evidence(&x, 29.95).ring_down_s
+                evidence(&x, 29.95).pulse_s
             };
             let [rise, fall] = read(0.0015, 2);
             assert!(
@@ -859,7 +859,7 @@ mod tests {
         }
         let mut r = Xoshiro128pp::seed_from_u64(9);
         let noise: Vec<f32> = (0..N * 4).map(|_| r.normal() as f32).collect();
-        let [rise, fall] = evidence(&noise, 29.95).ring_down_s;
+        let [rise, fall] = evidence(&noise, 29.95).pulse_s;
         assert!(rise < 0.0006 && fall < 0.0006, "{rise} {fall}");
     }
 

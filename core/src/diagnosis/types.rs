@@ -169,7 +169,7 @@ pub struct LineEvidence {
     /// do not, the fall is read short and reads no width.
     pub fall_lines_clear: bool,
     /// The band's own pulse power at the family's second and third harmonic over
-    /// its first (`ring_down_transfer`): the fall the ring-down and the
+    /// its first (`pulse_transfer_of`): the fall the ring-down and the
     /// band make whatever the defect's width, which the width read from the fall
     /// takes out.
     pub pulse_transfer: [f32; 2],
