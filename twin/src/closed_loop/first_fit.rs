@@ -476,16 +476,29 @@ fn slip_start(s: &Setup<'_>, model: TwinModel) -> Result<(TwinModel, usize), Fit
         return Ok((model, 0));
     };
     let model = with_measured_walk(s, model);
-    let mut best: Option<(f32, TwinModel)> = None;
-    for slip in SLIP_STARTS {
+    let starts = SLIP_STARTS.map(|slip| {
         let mut m = model.clone();
         m.params[i].value = slip.ln();
+        m
+    });
+    let best = cheapest(s, starts)?.map_or(model, |(_, m)| m);
+    Ok((best, SLIP_STARTS.len()))
+}
+
+/// The one of `models` with the lowest cost, and that cost (the first of equals;
+/// `None` where there are none): each one evaluation.
+fn cheapest(
+    s: &Setup<'_>,
+    models: impl IntoIterator<Item = TwinModel>,
+) -> Result<Option<(f32, TwinModel)>, FitError> {
+    let mut best: Option<(f32, TwinModel)> = None;
+    for m in models {
         let (_, cost, _) = evaluate(&m, &s.target, &s.fit_cfg)?;
         if best.as_ref().is_none_or(|(c, _)| cost < *c) {
             best = Some((cost, m));
         }
     }
-    Ok((best.expect("starts tried").1, SLIP_STARTS.len()))
+    Ok(best)
 }
 
 /// The strength spreads a fit of the base's spread starts from (the standard
@@ -519,20 +532,17 @@ fn spread_start(s: &Setup<'_>, model: TwinModel) -> Result<(TwinModel, usize), F
     let (Some(i), Some(b)) = (spread, background) else {
         return Ok((model, 0));
     };
-    let mut best: Option<(f32, TwinModel)> = None;
-    for share in BACKGROUND_SHARES {
-        for spread in SPREAD_STARTS {
+    let starts = BACKGROUND_SHARES.iter().flat_map(|share| {
+        SPREAD_STARTS.iter().map(|spread| {
             let mut m = model.clone();
             m.params[i].value = spread.ln();
             m.params[b].value += share.ln();
-            let (_, cost, _) = evaluate(&m, &s.target, &s.fit_cfg)?;
-            if best.as_ref().is_none_or(|(c, _)| cost < *c) {
-                best = Some((cost, m));
-            }
-        }
-    }
+            m
+        })
+    });
+    let best = cheapest(s, starts)?.map(|(_, m)| m);
     let tried = SPREAD_STARTS.len() * BACKGROUND_SHARES.len();
-    Ok((best.map_or(model, |(_, m)| m), tried))
+    Ok((best.unwrap_or(model), tried))
 }
 
 /// The corners of the structure's high-pass a first fit tries, Hz, the best of them
@@ -563,14 +573,7 @@ const LOW_CORNER_TERM: &str = "structure_low_corner";
 /// 5.2 dB this way.
 fn floor_start(s: &Setup<'_>, model: &TwinModel) -> Result<(TwinModel, usize), FitError> {
     let (_, flat, _) = evaluate(model, &s.target, &s.fit_cfg)?;
-    let mut best: Option<(f32, TwinModel)> = None;
-    for f_hz in FLOOR_STARTS {
-        let m = model.with_floor_corner(f_hz);
-        let (_, cost, _) = evaluate(&m, &s.target, &s.fit_cfg)?;
-        if best.as_ref().is_none_or(|(c, _)| cost < *c) {
-            best = Some((cost, m));
-        }
-    }
+    let best = cheapest(s, FLOOR_STARTS.map(|f_hz| model.with_floor_corner(f_hz)))?;
     let evaluations = FLOOR_STARTS.len() + 1;
     match best {
         Some((cost, m)) if cost < flat * (1.0 - s.cfg.min_relative_gain) => Ok((m, evaluations)),
