@@ -99,6 +99,7 @@ pub(super) fn round(
         sim_psd_db: to_db(&sim_sig.psd, &s.target_res.meas.psd),
         nulls: &nulls,
         holds: &s.holds,
+        tried: &st.trials.tried,
     };
     // A record with dropouts has the time statistics of its holes (a step into and
     // out of each, impulsive in any band): random impacts are not read off them.

@@ -10,7 +10,7 @@ use super::types::{LoopError, RejectedCandidate};
 use crate::fit::{evaluate, fit, FitConfig, FitError, FitResult, Target};
 use crate::residual::{band_kurtosis, evidence_gap, Candidate, Check, Component, Evidence};
 use crate::signature::{error_figures, to_db, Signature, SignatureConfig};
-use crate::trace::context::{has, MIN_LOG_KURTOSIS_EXCESS};
+use crate::trace::context::{has, second_train_key, MIN_LOG_KURTOSIS_EXCESS};
 use crate::twin::EffectKind;
 use crate::twin::{Effect, TwinModel};
 
@@ -180,7 +180,8 @@ fn same_component(x: &Component, y: &Component) -> bool {
 
 /// What a tried candidate is remembered by: its name, and for a structural mode its
 /// frequency (to 100 Hz), for a tone or a band nobody declared its frequency (to 1 Hz),
-/// so a further one elsewhere can still be tried.
+/// for a second impact train its source, so a further one elsewhere can still be
+/// tried.
 pub(super) fn tried_key(e: &Effect) -> String {
     match e {
         Effect::ExtraResonance { f_hz } => format!("extra_resonance@{:.0}", f_hz / 100.0),
@@ -191,6 +192,10 @@ pub(super) fn tried_key(e: &Effect) -> String {
         Effect::LoadZoneModulation { mod_hz } => {
             format!("load_zone_modulation@{:.0}", 2.0 * mod_hz)
         }
+        // A second train by what it names: one rejected leaves another defect's
+        // family to be tried (a ball's 2·BSF 2 % from an outer race's rate reads
+        // both; the one with the higher null z is tried first).
+        Effect::SecondImpactTrain { source, .. } => second_train_key(source),
         other => other.name().to_string(),
     }
 }

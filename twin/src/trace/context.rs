@@ -30,6 +30,14 @@ pub struct TraceContext<'a> {
     /// Sample ranges where the acquisition held one value (dropouts), in `x` and in
     /// the simulations alike.
     pub holds: &'a [Range<usize>],
+    /// The keys of the candidates the loop has tried (`closed_loop`'s `tried_key`):
+    /// a tracer that reads several sources offers the next one untried.
+    pub tried: &'a [String],
+}
+
+/// What a tried second impact train of `source` is remembered by.
+pub fn second_train_key(source: &str) -> String {
+    format!("second_impact_train@{source}")
 }
 
 /// Evidence with no extra figures.

@@ -33,7 +33,7 @@ pub use null::{KeptDraws, NullDraws, NullTest};
 use crate::effect::location_named;
 use crate::residual::{Candidate, ResidualAnalysis};
 use crate::twin::EffectKind;
-use context::has;
+use context::{has, second_train_key};
 
 /// Trace the residual to candidate effects the model lacks (strongest first; equal
 /// strengths keep the tracers' order).
@@ -42,23 +42,30 @@ pub fn trace(analysis: &ResidualAnalysis, ctx: &TraceContext<'_>) -> Vec<Candida
     let span_s = ctx.x.len() as f64 / f64::from(ctx.cfg.fs_hz);
     // A second impact train puts lines at k·r in the PSD too: read first, so that the
     // line tracer leaves them to it.
-    let train = if has(model, EffectKind::SecondImpactTrain) {
-        None
+    let trains: Vec<SecondTrain> = if has(model, EffectKind::SecondImpactTrain) {
+        Vec::new()
     } else {
         // A family read off the residual's lines that names a bearing defect first;
-        // else a defect at a rate the geometry tells (`told_defect`), whose null test
-        // is more specific than a family of lines at a rate nothing names.
+        // else the defects at the rates the geometry tells (`told_defect`), whose
+        // null test is more specific than a family of lines at a rate nothing names,
+        // and that family too (the refit judges each: a told reading can find a
+        // family where impacts at a rate nothing names left their lines).
+        let untried = |t: &SecondTrain| !ctx.tried.contains(&second_train_key(t.source));
         match second_train(analysis, model, ctx.cfg, &ctx.meas_psd_db, span_s) {
-            Some(t) if location_named(t.source).is_some() => Some(t),
-            other => told_defect::told_defect(ctx).or(other),
+            Some(t) if location_named(t.source).is_some() && untried(&t) => vec![t],
+            other => {
+                let mut trains: Vec<SecondTrain> = other.into_iter().filter(untried).collect();
+                trains.extend(told_defect::told_defect(ctx));
+                trains
+            }
         }
     };
     let mut out: Vec<Candidate> = Vec::new();
-    lines::trace(analysis, ctx, train.as_ref(), &mut out);
+    lines::trace(analysis, ctx, trains.first(), &mut out);
     bands::trace(analysis, ctx, &mut out);
     bands::trace_random_impacts(ctx, &mut out);
     modulation::trace(analysis, ctx, &mut out);
-    if let Some(t) = train {
+    for t in trains {
         impact_train::candidate(t, ctx, &mut out);
     }
     comb::trace(ctx, &mut out);
