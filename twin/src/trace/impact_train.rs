@@ -130,7 +130,7 @@ pub fn second_train(
                     continue;
                 }
             }
-            if own_rate.is_some_and(|fd| near_own_rate(r, fd)) {
+            if own_rate.is_some_and(|fd| near_own_rate(r, fd, OWN_RATE_EXCLUSION)) {
                 continue;
             }
             let idx: Vec<usize> = matched.iter().map(|&(i, _)| i).collect();
@@ -201,7 +201,9 @@ fn defect_family(
         DefectLocation::Ball,
     ] {
         let nominal = f64::from(freqs.impact_rate(loc));
-        if model.fault == Some(loc) || own_rate.is_some_and(|fd| near_own_rate(nominal, fd)) {
+        if model.fault == Some(loc)
+            || own_rate.is_some_and(|fd| near_own_rate(nominal, fd, OWN_RATE_EXCLUSION))
+        {
             continue;
         }
         for step in -steps..=steps {
@@ -243,14 +245,15 @@ fn defect_family(
     best.map(|(_, t)| t)
 }
 
-/// Whether `r` is within [`OWN_RATE_EXCLUSION`] of the modelled comb's rate `fd`, a
-/// multiple or a submultiple of it (1–4): there a family is the modelled train
+/// Whether `r` is within `within` (relative; the residual's line search uses
+/// [`OWN_RATE_EXCLUSION`]) of the modelled comb's rate `fd`, a multiple or a
+/// submultiple of it (1–4): there a family is the modelled train
 /// misplaced (a drifting speed smears its lines off the comb), or another defect rate
 /// that coincides with it, which no envelope can tell apart (`--seed 5` case 243:
 /// BPFO 0.6 % from 2·BSF, the outer race's own teeth read as a ball; case 69: BPFI
 /// 1.5 % from 2·BSF).
-pub(super) fn near_own_rate(r: f64, fd: f64) -> bool {
-    let near = |a: f64, b: f64| (a - b).abs() < OWN_RATE_EXCLUSION * b;
+pub(super) fn near_own_rate(r: f64, fd: f64, within: f64) -> bool {
+    let near = |a: f64, b: f64| (a - b).abs() < within * b;
     (1..=4).any(|j| near(r, fd * f64::from(j)) || near(r, fd / f64::from(j)))
 }
 

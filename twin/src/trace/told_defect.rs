@@ -23,7 +23,7 @@
 //! offered, the highest z first, and one the loop has tried is not offered again.
 
 use super::context::{impact_modulations, load_zone_line, second_train_key, TraceContext};
-use super::impact_train::SecondTrain;
+use super::impact_train::{near_own_rate, SecondTrain};
 use super::null::NullTest;
 use crate::residual::{band_envelope_spectrum, Component, Domain, Kind};
 use crate::twin::fault_name;
@@ -65,19 +65,11 @@ struct Member {
     m: i32,
 }
 
-/// One scale of the slip scan: the scale and the family's members there that no
-/// other source takes.
-struct Scaled {
-    scale: f64,
-    members: Vec<Member>,
-}
-
-/// The told family read in one record's envelope spectrum: the scan's best scale,
+/// The told family read in one record's envelope spectrum at the scan's best scale:
 /// its mean level over the members' floors (dB) and each member with its level, dB.
 struct Reading {
     level_db: f32,
     members: Vec<(Member, f32)>,
-    scale: f64,
 }
 
 impl Reading {
@@ -97,16 +89,13 @@ impl Reading {
     }
 }
 
-/// Whether a told rate `r` lies so near a multiple or submultiple (1–4) of the
-/// modelled comb's rate `fd` that the scan ([`SCAN`]) could read the modelled teeth
-/// as its family: within `SCAN` + 0.5 %. (The residual's line search excludes 5 %,
-/// `impact_train::near_own_rate`: its lines are matched at any rate. Here the rate is
-/// told and scanned over ±`SCAN` only; `--seed 18` case 221, a ball at 2·BSF 4 %
-/// from the inner race's half rate, was excluded by 5 %.)
-fn near_own_comb(r: f64, fd: f64) -> bool {
-    let near = |a: f64, b: f64| (a - b).abs() < (SCAN + 0.005) * b;
-    (1..=4).any(|j| near(r, fd * f64::from(j)) || near(r, fd / f64::from(j)))
-}
+/// How near (relative) a multiple or submultiple of the modelled comb's rate a told
+/// rate is the comb's own ([`near_own_rate`]): where the scan ([`SCAN`]) could read
+/// the modelled teeth as its family, `SCAN` + 0.5 %. (The residual's line search
+/// excludes 5 %: its lines are matched at any rate. Here the rate is told and scanned
+/// over ±`SCAN` only; `--seed 18` case 221, a ball at 2·BSF 4 % from the inner race's
+/// half rate, was excluded by 5 %.)
+const OWN_COMB_REACH: f64 = SCAN + 0.005;
 
 /// Second defects at the rates the geometry tells (see the module's docs), the
 /// strongest evidence (null z) first: each is offered, so that one the refit rejects
@@ -171,7 +160,7 @@ pub(super) fn told_defect(ctx: &TraceContext<'_>) -> Vec<SecondTrain> {
     ] {
         let fd = f64::from(freqs.impact_rate(loc)) * factor;
         let tried = ctx.tried.contains(&second_train_key(fault_name(Some(loc))));
-        if loc == own || tried || near_own_comb(fd, own_rate) {
+        if loc == own || tried || near_own_rate(fd, own_rate, OWN_COMB_REACH) {
             continue;
         }
         let fm = f64::from(freqs.modulation_rate(loc));
@@ -187,31 +176,30 @@ pub(super) fn told_defect(ctx: &TraceContext<'_>) -> Vec<SecondTrain> {
         if r.level_db < TOLD_MIN_DB || !has_fundamental {
             continue;
         }
+        // A member stands, so the rate through the standing peaks is there.
+        let Some(rate) = r.rate_hz(fm) else { continue };
         let null = ctx.nulls.test(r.level_db, |y| {
             spectrum(y).and_then(|(s, _)| read(&s)).map(|n| n.level_db)
         });
         let z = null.z();
         if null.significant() {
-            let fallback = f64::from(freqs.impact_rate(loc)) * factor * r.scale;
-            found.push((z, train(loc, &r, fm, fallback, null, df, shaft)));
+            found.push((z, train(loc, &r, rate, null, df, shaft)));
         }
     }
     found.sort_by(|a, b| b.0.total_cmp(&a.0));
     found.into_iter().map(|(_, t)| t).collect()
 }
 
-/// The second train `r` reads for defect `loc` (load zone `fm`): its rate through
-/// the standing members (`fallback` where none stands), lines and harmonics.
+/// The second train `r` reads for defect `loc` at `rate_hz` (through its standing
+/// members' peaks): its lines and harmonics.
 fn train(
     loc: DefectLocation,
     r: &Reading,
-    fm: f64,
-    fallback: f64,
+    rate_hz: f64,
     null: NullTest,
     df: f64,
     shaft: f64,
 ) -> SecondTrain {
-    let fd = r.rate_hz(fm).unwrap_or(fallback);
     let mut lines: Vec<Component> = r
         .standing()
         .map(|&(mb, db)| Component {
@@ -229,7 +217,7 @@ fn train(
     harmonics.sort_unstable();
     harmonics.dedup();
     SecondTrain {
-        rate_hz: fd,
+        rate_hz,
         source: fault_name(Some(loc)),
         harmonics,
         lines,
@@ -240,7 +228,7 @@ fn train(
 /// The family at `fd` (load zone `fm`, none for 0) over the slip scan ([`SCAN`]
 /// about `fd`): at each scale, the members `k·fd + m·fm` (`k` ≤ [`HARMONICS`], `|m|`
 /// ≤ 1) up to `env_max` that `taken` leaves free.
-fn family_members(fd: f64, fm: f64, env_max: f64, taken: &dyn Fn(f64) -> bool) -> Vec<Scaled> {
+fn family_members(fd: f64, fm: f64, env_max: f64, taken: &dyn Fn(f64) -> bool) -> Vec<Vec<Member>> {
     let steps = (SCAN / SCAN_STEP).round() as i32;
     let ms: &[i32] = if fm > 0.0 { &[-1, 0, 1] } else { &[0] };
     (-steps..=steps)
@@ -256,7 +244,7 @@ fn family_members(fd: f64, fm: f64, env_max: f64, taken: &dyn Fn(f64) -> bool) -
                 })
                 .filter(|mb| mb.f > 0.0 && mb.f <= env_max && !taken(mb.f))
                 .collect();
-            Scaled { scale, members }
+            members
         })
         .collect()
 }
@@ -267,14 +255,13 @@ fn family_members(fd: f64, fm: f64, env_max: f64, taken: &dyn Fn(f64) -> bool) -
 fn read_family(
     spec: &[f32],
     df: f64,
-    family: &[Scaled],
+    family: &[Vec<Member>],
     tol: &dyn Fn(f64) -> f64,
     taken: &dyn Fn(f64) -> bool,
 ) -> Option<Reading> {
     let mut best: Option<Reading> = None;
     for s in family {
         let members: Vec<(Member, f32)> = s
-            .members
             .iter()
             .filter_map(|&mb| {
                 member_level(spec, df, mb.f, tol(mb.f))
@@ -292,11 +279,7 @@ fn read_family(
             / members.len() as f32;
         let level_db = 10.0 * mean.log10();
         if best.as_ref().is_none_or(|b| level_db > b.level_db) {
-            best = Some(Reading {
-                level_db,
-                members,
-                scale: s.scale,
-            });
+            best = Some(Reading { level_db, members });
         }
     }
     best
@@ -403,10 +386,11 @@ mod tests {
     /// submultiples is the comb's; one 4 % from its half rate is not.
     #[test]
     fn only_rates_the_scan_can_reach_are_the_own_combs() {
-        assert!(near_own_comb(101.0, 100.0));
-        assert!(near_own_comb(50.6, 100.0));
-        assert!(near_own_comb(198.0, 100.0));
-        assert!(!near_own_comb(162.9, 339.4));
-        assert!(!near_own_comb(96.0, 100.0));
+        let near = |r: f64, fd: f64| near_own_rate(r, fd, OWN_COMB_REACH);
+        assert!(near(101.0, 100.0));
+        assert!(near(50.6, 100.0));
+        assert!(near(198.0, 100.0));
+        assert!(!near(162.9, 339.4));
+        assert!(!near(96.0, 100.0));
     }
 }
